@@ -1,0 +1,1 @@
+//! Criterion benchmarks for the sahara workspace (see `benches/`).

@@ -1,0 +1,247 @@
+//! Ray/triangle and ray/box intersection tests.
+//!
+//! * [`intersect_triangle`]: the watertight test of Woop, Benthin and Wald, "Watertight
+//!   Ray/Triangle Intersection" (JCGT 2013). A ray through a shared edge or vertex of a closed
+//!   mesh hits at least one of the triangles sharing it; edge functions that evaluate to exactly
+//!   zero in `f32` are recomputed in `f64`.
+//! * [`intersect_aabb`]: the slab test with the conservative rounding of Ize, "Robust BVH Ray
+//!   Traversal" (JCGT 2013): far distances are scaled up by `1 + 2γ(3)` so that rounding never
+//!   culls a box the ray really enters.
+
+use crate::{Aabb, Ray, Triangle};
+use glam::Vec3A;
+
+/// `γ(n) = n ε / (1 - n ε)` with `ε = 2^-24`, the rounding bound of Pharr et al.
+pub const fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5;
+    (n as f32 * e) / (1.0 - n as f32 * e)
+}
+
+/// The factor that makes the far slab distance conservative (Ize 2013): `1 + 2γ(3)`.
+pub const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// Per-ray constants of the watertight triangle test.
+#[derive(Clone, Copy, Debug)]
+pub struct WatertightRay {
+    /// Ray origin.
+    pub origin: Vec3A,
+    /// Index of the direction's largest component (the one mapped to z).
+    pub kz: usize,
+    /// The two other axes, swapped when `direction[kz] < 0` to keep the winding.
+    pub kx: usize,
+    /// See `kx`.
+    pub ky: usize,
+    /// Shear constants: `dir[kx] / dir[kz]`, `dir[ky] / dir[kz]`, `1 / dir[kz]`.
+    pub shear: Vec3A,
+}
+
+impl WatertightRay {
+    /// Precomputes the axis permutation and the shear for a ray.
+    #[inline]
+    pub fn new(origin: Vec3A, direction: Vec3A) -> Self {
+        let a = direction.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if direction[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let dz = direction[kz];
+        Self {
+            origin,
+            kz,
+            kx,
+            ky,
+            shear: Vec3A::new(direction[kx] / dz, direction[ky] / dz, 1.0 / dz),
+        }
+    }
+}
+
+/// A ray/triangle hit: distance and barycentrics, with the hit point at
+/// `(1 - u - v) v0 + u v1 + v v2` (Embree's convention).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Barycentric weight of `v1`.
+    pub u: f32,
+    /// Barycentric weight of `v2`.
+    pub v: f32,
+}
+
+/// Watertight ray/triangle test. Returns the hit when it lies in `[tmin, tmax]`.
+///
+/// Both faces are hit (no culling). Degenerate triangles (zero determinant) never hit. When
+/// the ray's constants are not finite (zero, NaN or infinite directions) the result is a miss
+/// or a finite hit, never a NaN distance.
+#[inline]
+pub fn intersect_triangle(
+    r: &WatertightRay,
+    tri: &Triangle,
+    tmin: f32,
+    tmax: f32,
+) -> Option<TriangleHit> {
+    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let a = tri.v[0] - r.origin;
+    let b = tri.v[1] - r.origin;
+    let c = tri.v[2] - r.origin;
+    let (sx, sy, sz) = (r.shear.x, r.shear.y, r.shear.z);
+    let ax = a[kx] - sx * a[kz];
+    let ay = a[ky] - sy * a[kz];
+    let bx = b[kx] - sx * b[kz];
+    let by = b[ky] - sy * b[kz];
+    let cx = c[kx] - sx * c[kz];
+    let cy = c[ky] - sy * c[kz];
+
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let (ax, ay, bx, by, cx, cy) = (
+            ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+        );
+        u = (cx * by - cy * bx) as f32;
+        v = (ax * cy - ay * cx) as f32;
+        w = (bx * ay - by * ax) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 || det.is_nan() {
+        return None;
+    }
+    let az = sz * a[kz];
+    let bz = sz * b[kz];
+    let cz = sz * c[kz];
+    let t_scaled = u * az + v * bz + w * cz;
+    // Compare before dividing: t = t_scaled / det must lie in [tmin, tmax].
+    let sign = det.signum();
+    let ts = t_scaled * sign;
+    let ad = det * sign;
+    if !(ts >= tmin * ad && ts <= tmax * ad) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let t = t_scaled * inv;
+    if !(t >= tmin && t <= tmax) {
+        return None;
+    }
+    Some(TriangleHit {
+        t,
+        u: v * inv,
+        v: w * inv,
+    })
+}
+
+/// Convenience wrapper: precomputes the ray constants and tests one triangle.
+#[inline]
+pub fn intersect_ray_triangle(ray: &Ray, tri: &Triangle) -> Option<TriangleHit> {
+    intersect_triangle(&ray.watertight(), tri, ray.tmin, ray.tmax)
+}
+
+/// Robust slab test (Ize 2013). Returns the entry distance when the ray's `[tmin, tmax]`
+/// overlaps the box, using `inv_direction` for the reciprocal direction.
+///
+/// Far distances are scaled by [`ROBUST_FAR_SCALE`] so that a ray that really enters the box
+/// is never rejected by rounding. NaN slab distances (a zero direction component with the origin
+/// on a slab plane) are ignored, which keeps the test conservative.
+#[inline]
+pub fn intersect_aabb(
+    origin: Vec3A,
+    inv_direction: Vec3A,
+    tmin: f32,
+    tmax: f32,
+    aabb: &Aabb,
+) -> Option<f32> {
+    let t0 = (aabb.min - origin) * inv_direction;
+    let t1 = (aabb.max - origin) * inv_direction;
+    let tnear = t0.min(t1);
+    let tfar = t0.max(t1) * ROBUST_FAR_SCALE;
+    // f32::max / f32::min return the non-NaN operand.
+    let near = tmin.max(tnear.x).max(tnear.y).max(tnear.z);
+    let far = tmax.min(tfar.x).min(tfar.y).min(tfar.z);
+    if near <= far {
+        Some(near)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri() -> Triangle {
+        Triangle::new(
+            Vec3A::new(0.0, 0.0, 1.0),
+            Vec3A::new(1.0, 0.0, 1.0),
+            Vec3A::new(0.0, 1.0, 1.0),
+        )
+    }
+
+    #[test]
+    fn hits_and_barycentrics() {
+        let r = Ray::new(Vec3A::new(0.25, 0.25, 0.0), Vec3A::Z, 0.0, 10.0);
+        let h = intersect_ray_triangle(&r, &tri()).unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6);
+        assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.25).abs() < 1e-6);
+        let p = tri().point(h.u, h.v);
+        assert!((p - r.at(h.t)).length() < 1e-6);
+    }
+
+    #[test]
+    fn respects_interval_and_both_faces() {
+        let r = Ray::new(Vec3A::new(0.25, 0.25, 2.0), -Vec3A::Z, 0.0, 0.5);
+        assert!(intersect_ray_triangle(&r, &tri()).is_none());
+        let r = Ray::new(Vec3A::new(0.25, 0.25, 2.0), -Vec3A::Z, 0.0, 1.5);
+        assert!(intersect_ray_triangle(&r, &tri()).is_some());
+        let r = Ray::new(Vec3A::new(0.25, 0.25, 2.0), -Vec3A::Z, 1.5, 5.0);
+        assert!(intersect_ray_triangle(&r, &tri()).is_none());
+    }
+
+    #[test]
+    fn degenerate_triangle_never_hits() {
+        let d = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0);
+        let r = Ray::new(Vec3A::new(0.5, 0.0, -1.0), Vec3A::Z, 0.0, 10.0);
+        assert!(intersect_ray_triangle(&r, &d).is_none());
+    }
+
+    #[test]
+    fn bad_rays_do_not_produce_nan() {
+        for dir in [
+            Vec3A::ZERO,
+            Vec3A::new(f32::NAN, 0.0, 1.0),
+            Vec3A::new(f32::INFINITY, 0.0, 1.0),
+            Vec3A::new(1e-40, 1e-41, 1e-40),
+        ] {
+            let r = Ray::new(Vec3A::new(0.25, 0.25, 0.0), dir, 0.0, f32::INFINITY);
+            if let Some(h) = intersect_ray_triangle(&r, &tri()) {
+                assert!(h.t.is_finite());
+            }
+        }
+    }
+
+    #[test]
+    fn slab_test() {
+        let b = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
+        let r = Ray::new(Vec3A::new(0.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
+        let t = intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).unwrap();
+        assert!((t - 4.0).abs() < 1e-6);
+        let r = Ray::new(Vec3A::new(2.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
+        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_none());
+        // Axis-parallel ray lying exactly in a face plane: conservative hit.
+        let r = Ray::new(Vec3A::new(1.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
+        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        // Flat box (zero thickness) is still hit.
+        let flat = Aabb::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, 1.0, 0.0));
+        let r = Ray::new(Vec3A::new(0.3, 0.2, -5.0), Vec3A::new(0.0, 0.0, 1.0), 0.0, 100.0);
+        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &flat).is_some());
+    }
+}

@@ -1,0 +1,45 @@
+//! Geometry for the sahara BVH toolkit.
+//!
+//! The lowest crate of the workspace, with no dependency beyond `glam`:
+//!
+//! * [`Aabb`]: axis-aligned boxes on [`glam::Vec3A`] (grow, union, intersection, surface area);
+//! * [`Ray`]: origin, direction, `[tmin, tmax]` interval and a precomputed reciprocal direction;
+//! * [`Triangle`]: three vertices, with bounds, area, centroid and normal;
+//! * [`intersect::intersect_triangle`]: the watertight ray/triangle test of Woop, Benthin and
+//!   Wald (2013);
+//! * [`intersect::intersect_aabb`]: the robust slab test of Ize (2013);
+//! * [`clip`]: clipping a triangle against a box (area and bounds of the clipped polygon) and
+//!   splitting a triangle's bounds by an axis-aligned plane, as spatial splits and the EPO
+//!   metric need;
+//! * [`rng::Pcg32`]: a small deterministic random generator, so that procedural scenes and ray
+//!   sets are bit-identical on every machine and every version of the workspace.
+//!
+//! ```
+//! use sahara_geom::{Ray, Triangle, Vec3A, intersect::intersect_triangle};
+//!
+//! let tri = Triangle::new(
+//!     Vec3A::new(-1.0, -1.0, 5.0),
+//!     Vec3A::new(1.0, -1.0, 5.0),
+//!     Vec3A::new(0.0, 1.0, 5.0),
+//! );
+//! let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+//! let hit = intersect_triangle(&ray.watertight(), &tri, ray.tmin, ray.tmax).unwrap();
+//! assert!((hit.t - 5.0).abs() < 1e-6);
+//! assert!(tri.bounds().surface_area() > 0.0);
+//! ```
+#![warn(missing_docs)]
+
+mod aabb;
+pub mod clip;
+pub mod intersect;
+mod ray;
+pub mod rng;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use glam::{Vec3, Vec3A};
+pub use ray::Ray;
+pub use triangle::Triangle;
+
+/// An axis of 3D space: 0 = x, 1 = y, 2 = z.
+pub type Axis = usize;

@@ -1,0 +1,62 @@
+use crate::intersect::WatertightRay;
+use glam::Vec3A;
+
+/// A ray `origin + t * direction` for `t` in `[tmin, tmax]`.
+///
+/// The reciprocal of the direction is computed once at construction; components of the
+/// direction that are `±0` give `±inf`, which the slab test handles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub origin: Vec3A,
+    /// Direction (need not be normalised; `t` is measured in units of it).
+    pub direction: Vec3A,
+    /// Start of the valid interval.
+    pub tmin: f32,
+    /// End of the valid interval.
+    pub tmax: f32,
+    /// `1 / direction`, component-wise.
+    pub inv_direction: Vec3A,
+}
+
+impl Ray {
+    /// A ray with its reciprocal direction precomputed.
+    #[inline]
+    pub fn new(origin: Vec3A, direction: Vec3A, tmin: f32, tmax: f32) -> Self {
+        Self {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            inv_direction: direction.recip(),
+        }
+    }
+
+    /// The point at parameter `t`.
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3A {
+        self.origin + self.direction * t
+    }
+
+    /// True when the ray can hit anything: finite origin and direction, a non-zero direction,
+    /// and a non-empty `[tmin, tmax]` with `tmin` not NaN and `tmax` not NaN.
+    ///
+    /// Every traversal kernel of the workspace treats an invalid ray as a miss (documented
+    /// handling of NaN, Inf and zero-direction rays). `tmax = +inf` is valid.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        self.origin.is_finite()
+            && self.direction.is_finite()
+            && self.direction != Vec3A::ZERO
+            && !self.tmin.is_nan()
+            && !self.tmax.is_nan()
+            && self.tmin <= self.tmax
+            && self.tmax >= 0.0
+    }
+
+    /// Precomputes the per-ray data of the watertight triangle test.
+    #[inline]
+    pub fn watertight(&self) -> WatertightRay {
+        WatertightRay::new(self.origin, self.direction)
+    }
+}
