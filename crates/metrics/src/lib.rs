@@ -1,1 +1,22 @@
-//! placeholder
+//! Quality metrics of BVHs. Every function here is a pure function of a tree (and the
+//! triangles and cost model it needs): **metrics never mutate trees**.
+//!
+//! * [`CostModel`]: the constants `c_t` (traversal step) and `c_i` (primitive test);
+//! * [`sah()`]: the surface area heuristic cost of a tree (Eq. 1 of Wodniok & Goesele);
+//!
+//! ```
+//! use sahara_bvh::{Bvh, Node};
+//! use sahara_geom::{Aabb, Vec3A};
+//! use sahara_metrics::{sah, CostModel};
+//!
+//! let unit = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+//! let leaf = Bvh { nodes: vec![Node::leaf(&unit, 0, 3)], prim_indices: vec![0, 1, 2], spatial_splits: false };
+//! assert_eq!(sah(&leaf, &CostModel::default()), 3.0);
+//! ```
+#![warn(missing_docs)]
+
+mod cost;
+mod sah;
+
+pub use cost::CostModel;
+pub use sah::{sah, sah_of_subtree};

@@ -1,0 +1,166 @@
+use sahara_bvh::{Bvh, LoadError, Node, ValidationError};
+use sahara_geom::{Aabb, Triangle, Vec3A};
+
+fn scene() -> (Vec<Triangle>, Bvh) {
+    let tris: Vec<Triangle> = (0..4)
+        .map(|i| {
+            let o = Vec3A::new(i as f32 * 2.0, 0.0, 0.0);
+            Triangle::new(o, o + Vec3A::X, o + Vec3A::Y)
+        })
+        .collect();
+    let b = |r: std::ops::Range<usize>| {
+        tris[r].iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()))
+    };
+    // root(0) -> inner(1) [leaf 2: 0, leaf 3: 1], leaf 4: 2,3
+    let bvh = Bvh {
+        nodes: vec![
+            Node::inner(&b(0..4), 4),
+            Node::inner(&b(0..2), 3),
+            Node::leaf(&b(0..1), 0, 1),
+            Node::leaf(&b(1..2), 1, 1),
+            Node::leaf(&b(2..4), 2, 2),
+        ],
+        prim_indices: vec![0, 1, 2, 3],
+        spatial_splits: false,
+    };
+    (tris, bvh)
+}
+
+#[test]
+fn valid_tree_and_stats() {
+    let (tris, bvh) = scene();
+    bvh.validate(&tris).unwrap();
+    let s = bvh.stats();
+    assert_eq!(s.nodes, 5);
+    assert_eq!(s.leaves, 3);
+    assert_eq!(s.inner, 2);
+    assert_eq!(s.depth, 3);
+    assert_eq!(s.max_leaf, 2);
+    assert_eq!(s.leaf_histogram, vec![0, 2, 1]);
+}
+
+#[test]
+fn empty_tree() {
+    Bvh::empty().validate(&[]).unwrap();
+    let (tris, _) = scene();
+    assert_eq!(
+        Bvh::empty().validate(&tris),
+        Err(ValidationError::MissingRoot(4))
+    );
+}
+
+#[test]
+fn detects_errors() {
+    let (tris, good) = scene();
+    let mut b = good.clone();
+    b.nodes[0].index = 0; // cycle to itself
+    assert!(matches!(
+        b.validate(&tris),
+        Err(ValidationError::ChildOutOfRange { .. })
+    ));
+    let mut b = good.clone();
+    b.nodes[0].index = 99;
+    assert!(matches!(
+        b.validate(&tris),
+        Err(ValidationError::ChildOutOfRange { .. })
+    ));
+    let mut b = good.clone();
+    b.nodes[2].max[0] += 100.0; // child sticks out of its parent
+    assert!(matches!(
+        b.validate(&tris),
+        Err(ValidationError::ChildNotContained { .. })
+    ));
+    let mut b = good.clone();
+    b.nodes[4].min[0] += 0.5; // triangle 2 sticks out of its leaf
+    assert!(matches!(
+        b.validate(&tris),
+        Err(ValidationError::PrimitiveNotContained { .. })
+    ));
+    let mut b = good.clone();
+    b.prim_indices[3] = 2; // triangle 3 missing, 2 twice
+    assert!(b.validate(&tris).is_err());
+    let mut b = good.clone();
+    b.prim_indices[3] = 17;
+    assert!(matches!(
+        b.validate(&tris),
+        Err(ValidationError::PrimitiveOutOfRange { .. })
+    ));
+    let mut b = good.clone();
+    b.nodes[4].count = 3; // range past the end
+    assert!(matches!(
+        b.validate(&tris),
+        Err(ValidationError::LeafRangeOutOfBounds { .. })
+    ));
+    let mut b = good.clone();
+    b.nodes[1].min[1] = f32::NAN;
+    assert!(b.validate(&tris).is_err());
+    let mut b = good;
+    b.spatial_splits = true;
+    b.prim_indices[3] = 2;
+    // Duplicates are allowed with spatial splits, but triangle 3 is still unreferenced.
+    assert_eq!(
+        b.validate(&tris),
+        Err(ValidationError::Unreferenced { prim: 3 })
+    );
+}
+
+#[test]
+fn save_load_round_trip_and_truncation() {
+    let (_, bvh) = scene();
+    let mut bytes = Vec::new();
+    bvh.save(&mut bytes).unwrap();
+    assert_eq!(Bvh::load(&mut bytes.as_slice()).unwrap(), bvh);
+    // Every truncation is an error, never a panic.
+    for cut in 0..bytes.len() {
+        let err = Bvh::load(&mut &bytes[..cut]).unwrap_err();
+        assert!(matches!(err, LoadError::Truncated { .. }), "cut {cut}: {err}");
+        assert!(err.to_string().contains("truncated"), "{err}");
+    }
+    // Every single-bit corruption is an error or a structurally valid tree.
+    for i in 0..bytes.len() {
+        let mut c = bytes.clone();
+        c[i] ^= 0x10;
+        if let Ok(t) = Bvh::load(&mut c.as_slice()) {
+            t.validate_structure().unwrap();
+        }
+    }
+    let mut c = bytes.clone();
+    c[45] ^= 1;
+    assert!(matches!(Bvh::load(&mut c.as_slice()), Err(LoadError::Checksum)));
+    let mut c = bytes.clone();
+    c.push(0);
+    assert!(matches!(
+        Bvh::load(&mut c.as_slice()),
+        Err(LoadError::TrailingData(1))
+    ));
+    let mut c = bytes.clone();
+    c[0] = b'X';
+    assert!(matches!(Bvh::load(&mut c.as_slice()), Err(LoadError::BadMagic)));
+}
+
+#[test]
+fn huge_size_fields_do_not_allocate() {
+    let mut bytes = Vec::new();
+    bytes.extend_from_slice(b"SAHARBVH");
+    bytes.extend_from_slice(&1u32.to_le_bytes());
+    bytes.extend_from_slice(&0u32.to_le_bytes());
+    bytes.extend_from_slice(&(u64::MAX / 64).to_le_bytes());
+    bytes.extend_from_slice(&u64::MAX.to_le_bytes());
+    bytes.extend_from_slice(&0u64.to_le_bytes());
+    assert!(matches!(
+        Bvh::load(&mut bytes.as_slice()),
+        Err(LoadError::Truncated { .. })
+    ));
+}
+
+#[test]
+fn structurally_broken_payload_is_rejected() {
+    let (_, mut bvh) = scene();
+    bvh.nodes[1].index = 1;
+    let mut bytes = Vec::new();
+    bvh.save(&mut bytes).unwrap();
+    assert!(matches!(
+        Bvh::load(&mut bytes.as_slice()),
+        Err(LoadError::Invalid(_))
+    ));
+}

@@ -1,0 +1,66 @@
+use crate::CostModel;
+use sahara_bvh::Bvh;
+
+/// The SAH cost of a tree, `c(root)` of Eq. 1:
+/// `(c_t Σ_inner A(n) + c_i Σ_leaf |n| A(n)) / A(root)`. Zero for an empty tree.
+///
+/// When the root has zero area (all primitives on one point or line), every node is weighted
+/// as if it were hit whenever the root is (the limit of the area ratios), so the cost is the
+/// number of inner nodes times `c_t` plus the references times `c_i`.
+pub fn sah(bvh: &Bvh, cost: &CostModel) -> f64 {
+    if bvh.nodes.is_empty() {
+        return 0.0;
+    }
+    sah_of_subtree(bvh, 0, cost)
+}
+
+/// The SAH cost `c(n)` of the subtree rooted at node `root`, relative to that node's area.
+pub fn sah_of_subtree(bvh: &Bvh, root: usize, cost: &CostModel) -> f64 {
+    let root_area = bvh.nodes[root].bounds().half_area() as f64;
+    let mut inner = 0.0f64;
+    let mut leaf = 0.0f64;
+    let mut stack = vec![root];
+    while let Some(i) = stack.pop() {
+        let n = &bvh.nodes[i];
+        let a = if root_area > 0.0 {
+            n.bounds().half_area() as f64
+        } else {
+            1.0
+        };
+        if n.is_leaf() {
+            leaf += a * n.count as f64;
+        } else {
+            inner += a;
+            let (l, r) = bvh.children(i);
+            stack.push(r);
+            stack.push(l);
+        }
+    }
+    let norm = if root_area > 0.0 { root_area } else { 1.0 };
+    (cost.traversal as f64 * inner + cost.intersection as f64 * leaf) / norm
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use sahara_bvh::Node;
+    use sahara_geom::{Aabb, Vec3A};
+
+    #[test]
+    fn matches_recursive_definition() {
+        let root = Aabb::new(Vec3A::ZERO, Vec3A::new(2.0, 1.0, 1.0));
+        let l = Aabb::new(Vec3A::ZERO, Vec3A::new(1.0, 1.0, 1.0));
+        let r = Aabb::new(Vec3A::new(1.5, 0.0, 0.0), Vec3A::new(2.0, 1.0, 1.0));
+        let bvh = Bvh {
+            nodes: vec![Node::inner(&root, 2), Node::leaf(&l, 0, 2), Node::leaf(&r, 2, 3)],
+            prim_indices: vec![0, 1, 2, 3, 4],
+            spatial_splits: false,
+        };
+        let c = CostModel::default();
+        let (ap, al, ar) = (root.half_area() as f64, l.half_area() as f64, r.half_area() as f64);
+        let expect = c.inner_cost(ap, al, c.leaf_cost(2), ar, c.leaf_cost(3));
+        assert_relative_eq!(sah(&bvh, &c), expect, epsilon = 1e-9);
+        assert_eq!(sah(&Bvh::empty(), &c), 0.0);
+    }
+}

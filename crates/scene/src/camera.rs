@@ -1,0 +1,134 @@
+//! Default pinhole cameras for scenes.
+
+use sahara_geom::{Aabb, Vec3A};
+
+/// A pinhole camera: where it is, what it looks at, which way is up, and its vertical field
+/// of view. Image size and ray generation belong to the tracer (`sahara-trace`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Position of the eye.
+    pub eye: Vec3A,
+    /// The point the camera looks at (the centre of the image).
+    pub target: Vec3A,
+    /// The up direction (need not be orthogonal to the view direction, nor unit length).
+    pub up: Vec3A,
+    /// Vertical field of view in degrees.
+    pub fov_y_degrees: f32,
+}
+
+/// Which axis points up in a scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum UpAxis {
+    /// `+y` is up (the convention of OBJ and glTF, and of every scene but a few).
+    #[default]
+    Y,
+    /// `+z` is up (GIS and CAD data, e.g. `san_francisco_osm`).
+    Z,
+}
+
+impl UpAxis {
+    /// The up vector.
+    pub fn vector(self) -> Vec3A {
+        match self {
+            UpAxis::Y => Vec3A::Y,
+            UpAxis::Z => Vec3A::Z,
+        }
+    }
+}
+
+impl Camera {
+    /// A camera from its four parameters.
+    pub fn new(eye: Vec3A, target: Vec3A, up: Vec3A, fov_y_degrees: f32) -> Self {
+        Self {
+            eye,
+            target,
+            up,
+            fov_y_degrees,
+        }
+    }
+
+    /// A camera framing `bounds` from the front and slightly above, at 45° vertical field of
+    /// view:
+    ///
+    /// * y up: `eye = c + normalize(0, 0.1, 1) · 1.2 · |diagonal|`;
+    /// * z up: `eye = c + normalize(0, 1, 0.1) · 1.2 · |diagonal|`,
+    ///
+    /// where `c` is the centre of the box; the camera looks at `c`. An empty or degenerate
+    /// box gives a camera at distance 1 from its centre (or from the origin).
+    pub fn framing(bounds: &Aabb, up: UpAxis) -> Self {
+        let (centre, diag) = if bounds.is_empty() || !bounds.is_finite() {
+            (Vec3A::ZERO, 1.0)
+        } else {
+            let d = bounds.extent().length();
+            (bounds.centroid(), if d > 0.0 { d } else { 1.0 })
+        };
+        let dir = match up {
+            UpAxis::Y => Vec3A::new(0.0, 0.1, 1.0),
+            UpAxis::Z => Vec3A::new(0.0, 1.0, 0.1),
+        }
+        .normalize();
+        Self {
+            eye: centre + dir * (1.2 * diag),
+            target: centre,
+            up: up.vector(),
+            fov_y_degrees: 45.0,
+        }
+    }
+
+    /// The unit viewing direction, from `eye` to `target`.
+    pub fn direction(&self) -> Vec3A {
+        (self.target - self.eye).normalize_or_zero()
+    }
+}
+
+/// The built-in camera of a known scene, by catalog name.
+///
+/// The two interiors use the views from inside the nave listed in the scene folder's
+/// `SCENES.md` (`sponza_dabrovic`, `sibenik`); `san_francisco_osm` is framed with z up; any
+/// other name is framed with y up ([`Camera::framing`]). Procedural scenes get their
+/// cameras from their generators instead.
+pub fn default_camera(name: &str, bounds: &Aabb) -> Camera {
+    match name {
+        "sponza_dabrovic" => Camera::new(
+            Vec3A::new(-14.0, 2.5, 0.0),
+            Vec3A::new(0.0, 5.0, 0.0),
+            Vec3A::Y,
+            60.0,
+        ),
+        "sibenik" => Camera::new(
+            Vec3A::new(-18.0, -10.0, 0.0),
+            Vec3A::new(0.0, -8.0, 0.0),
+            Vec3A::Y,
+            60.0,
+        ),
+        _ => Camera::framing(bounds, up_axis_of(name)),
+    }
+}
+
+/// The up axis of a known scene, by catalog name (`Z` for `san_francisco_osm`, `Y` for
+/// anything else).
+pub fn up_axis_of(name: &str) -> UpAxis {
+    match name {
+        "san_francisco_osm" => UpAxis::Z,
+        _ => UpAxis::Y,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn framing_looks_at_centre_from_front() {
+        let b = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
+        let c = Camera::framing(&b, UpAxis::Y);
+        assert_eq!(c.target, Vec3A::ZERO);
+        let d = 2.0 * 3f32.sqrt() * 1.2;
+        assert!((c.eye.length() - d).abs() < 1e-5);
+        assert!(c.eye.z > 0.0 && c.eye.y > 0.0 && c.eye.x == 0.0);
+        let z = Camera::framing(&b, UpAxis::Z);
+        assert!(z.eye.y > 0.0 && z.eye.z > 0.0);
+        assert_eq!(z.up, Vec3A::Z);
+        assert!(Camera::framing(&Aabb::EMPTY, UpAxis::Y).eye.is_finite());
+    }
+}
