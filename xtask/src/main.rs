@@ -1,1 +1,49 @@
-fn main() {}
+//! `cargo xtask`: the project's tasks (see README.md and DESIGN.md's command-line contract).
+
+mod bvh_cmd;
+mod eval;
+mod scaling;
+mod scenes_cmd;
+mod trace_cmd;
+mod util;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "cargo xtask", about = "sahara project tasks")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// List every scene found: name, triangles, bounds, source.
+    Scenes(scenes_cmd::Args),
+    /// List builder names and their configurations.
+    Builders,
+    /// Build a BVH and report build time and tree statistics.
+    Bvh(bvh_cmd::Args),
+    /// Trace a ray set and report speed and work per ray.
+    Trace(trace_cmd::Args),
+    /// Run the evaluation matrix and write the report.
+    Eval(eval::Args),
+    /// Measure build time against N and fit the exponent.
+    Scaling(scaling::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.cmd {
+        Cmd::Scenes(a) => scenes_cmd::run(a),
+        Cmd::Builders => bvh_cmd::list_builders(),
+        Cmd::Bvh(a) => bvh_cmd::run(a),
+        Cmd::Trace(a) => trace_cmd::run(a),
+        Cmd::Eval(a) => eval::run(a),
+        Cmd::Scaling(a) => scaling::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}

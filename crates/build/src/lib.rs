@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod binned;
+mod common;
 mod input;
 pub mod popov;
 pub mod registry;

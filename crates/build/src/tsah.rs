@@ -1,8 +1,369 @@
-//! (to be written)
+//! The builders of Wodniok & Goesele (2017, "Construction of bounding volume hierarchies with
+//! SAH cost approximation on temporary subtrees"; first published at Graphics Interface 2016 as
+//! "Recursive SAH-based bounding volume hierarchy construction").
+//!
+//! A greedy SAH builder rates a split by Eq. 2, as if both children stayed leaves. The paper's
+//! builder rates each candidate partition `(L, R)` of a node `P` instead by building temporary
+//! SAH trees `T_L` and `T_R` over both sides and evaluating their real recursive cost (Eq. 1):
+//!
+//! ```text
+//! cost(L, R) = c_t + A(L)/A(P) c(T_L) + A(R)/A(P) c(T_R)
+//! ```
+//!
+//! It takes the cheapest candidate (the node becomes a leaf when `n c_i` is not above that
+//! cost and it has at most [`TsahConfig::max_leaf_size`] primitives), throws the temporaries
+//! away and recurses with the same rule. Temporaries only need their cost: they are computed
+//! by the cost-only builds [`crate::sweep::sweep_cost`] (or a cost-only binned build) and
+//! allocate no nodes. The candidates of a node are rated in parallel on rayon and the cheapest
+//! is found with the same deterministic tie-break as the sweep builder, so the tree does not
+//! depend on the number of threads.
+//!
+//! With [`Candidates::TopK`] (rate only the `k` best candidates by Eq. 2) each node costs
+//! `O(k n log n)` and the whole build `O(k N log² N)`, the subquadratic complexity the paper
+//! establishes. See `docs/builders-tsah.md` for the presets and the measurements behind the
+//! defaults.
+//!
+//! ```
+//! use sahara_build::tsah::{TsahBuilder, TsahConfig};
+//! use sahara_build::sweep::SweepBuilder;
+//! use sahara_build::{BuildInput, Builder};
+//! use sahara_geom::{Triangle, Vec3A};
+//! use sahara_metrics::{sah, CostModel};
+//!
+//! let tris: Vec<Triangle> = (0..500)
+//!     .map(|i| {
+//!         let o = Vec3A::new((i % 23) as f32, (i / 23) as f32 * 0.3, (i % 7) as f32);
+//!         Triangle::new(o, o + Vec3A::X * 0.9, o + Vec3A::Z * 0.4)
+//!     })
+//!     .collect();
+//! let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+//! let tsah_tree = TsahBuilder::new(TsahConfig::TOP_K).build(&input).unwrap();
+//! tsah_tree.validate(&tris).unwrap();
+//! // With the greedy-best split among the candidates and sweep temporaries, the SAH cost is
+//! // never above that of the sweep builder's tree.
+//! let sweep_tree = SweepBuilder::default().build(&input).unwrap();
+//! assert!(sah(&tsah_tree, &input.cost) <= sah(&sweep_tree, &input.cost) * (1.0 + 1e-9));
+//! ```
+
+mod binned_cost;
+pub(crate) mod engine;
+
+use sahara_bvh::Bvh;
 
 use crate::registry::Entry;
+use crate::sweep::{self, Marks, SplitCandidate, SubtreeCost, SweepScratch};
+use crate::{BuildError, BuildInput, Builder};
+use binned_cost::{binned_cost, BinnedScratch};
+use engine::{EngineParams, LocalNode, Rater};
+
+/// Which candidate splits of a node are rated with temporary subtrees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Candidates {
+    /// Every one of the `3 (n - 1)` sweep positions: `O(n² log n)` per node, a reference for
+    /// small inputs and tests.
+    Exhaustive,
+    /// The `k` best sweep positions by Eq. 2 (same tie-break as the sweep builder), over all
+    /// three axes together or, with `per_axis`, `k` on each axis (`3k` in all).
+    TopK {
+        /// Number of candidates (per axis with `per_axis`), at least 1.
+        k: usize,
+        /// Select `k` per axis instead of `k` overall.
+        per_axis: bool,
+    },
+    /// The split positions of `bins_per_axis` equal-width bins over the node's centroid
+    /// extent on each axis (at most `bins_per_axis - 1` planes per axis; planes that separate
+    /// nothing, or the same primitives as the previous plane, are skipped).
+    Binned {
+        /// Number of bins per axis, at least 2.
+        bins_per_axis: usize,
+    },
+}
+
+/// How the temporary subtrees that rate a candidate are built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Temporary {
+    /// Full-sweep SAH, exactly the tree [`crate::sweep::SweepBuilder`] would build (same
+    /// `max_leaf_size`), via the cost-only [`crate::sweep::sweep_cost`].
+    Sweep,
+    /// Binned SAH with this many bins per axis (at least 2), by a cost-only binned build
+    /// over the node's centroid bounds (Wald 2007).
+    Binned {
+        /// Bins per axis.
+        bins: usize,
+    },
+}
+
+/// Configuration of the temporary-subtree SAH builder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct TsahConfig {
+    /// Which candidate splits are rated with temporaries.
+    pub candidates: Candidates,
+    /// How the temporaries are built.
+    pub temporary: Temporary,
+    /// Nodes with at most this many primitives are built by the plain greedy rule (Eq. 2,
+    /// i.e. the sweep builder); 0 applies the paper's rule everywhere. Small nodes gain little
+    /// from temporaries and cost most of the calls.
+    pub greedy_below: usize,
+    /// Always rate the greedy-best split (the sweep builder's choice) too, even when the
+    /// candidate selection would not include it. With [`Temporary::Sweep`] this makes the
+    /// tree's SAH cost never exceed the sweep builder's.
+    pub always_include_greedy_best: bool,
+    /// Largest leaf (at least 1), also used by the temporaries. Default 8.
+    pub max_leaf_size: usize,
+}
+
+impl Default for TsahConfig {
+    fn default() -> Self {
+        Self::TOP_K
+    }
+}
+
+impl TsahConfig {
+    /// Every sweep candidate rated with sweep temporaries: `O(n² log n)` per node, small
+    /// inputs only (registered as `tsah-exhaustive`).
+    pub const EXHAUSTIVE: TsahConfig = TsahConfig {
+        candidates: Candidates::Exhaustive,
+        temporary: Temporary::Sweep,
+        greedy_below: 0,
+        always_include_greedy_best: true,
+        max_leaf_size: 8,
+    };
+    /// The default `O(N log² N)` builder (registered as `tsah-topk`): the 4 best candidates
+    /// by Eq. 2 rated with sweep temporaries; nodes of at most 32 primitives greedy.
+    pub const TOP_K: TsahConfig = TsahConfig {
+        candidates: Candidates::TopK {
+            k: 4,
+            per_axis: false,
+        },
+        temporary: Temporary::Sweep,
+        greedy_below: 32,
+        always_include_greedy_best: true,
+        max_leaf_size: 8,
+    };
+    /// The fastest preset (registered as `tsah-binned`): 4 equal-width bins per axis (up to
+    /// 9 planes) plus the greedy-best split, rated with 16-bin binned temporaries; nodes of
+    /// at most 32 primitives greedy.
+    pub const BINNED: TsahConfig = TsahConfig {
+        candidates: Candidates::Binned { bins_per_axis: 4 },
+        temporary: Temporary::Binned { bins: 16 },
+        greedy_below: 32,
+        always_include_greedy_best: true,
+        max_leaf_size: 8,
+    };
+
+    /// Checks the ranges of the fields.
+    pub fn validate(&self) -> Result<(), BuildError> {
+        let bad = |m: &str| Err(BuildError::InvalidConfig(format!("tsah: {m}")));
+        if self.max_leaf_size == 0 {
+            return bad("max_leaf_size must be at least 1");
+        }
+        match self.candidates {
+            Candidates::TopK { k: 0, .. } => return bad("top-k needs k >= 1"),
+            Candidates::Binned { bins_per_axis } if bins_per_axis < 2 => {
+                return bad("binned candidates need at least 2 bins per axis")
+            }
+            _ => {}
+        }
+        if let Temporary::Binned { bins } = self.temporary {
+            if bins < 2 {
+                return bad("binned temporaries need at least 2 bins");
+            }
+        }
+        Ok(())
+    }
+
+    /// A one-line description.
+    pub fn describe(&self) -> String {
+        let cands = match self.candidates {
+            Candidates::Exhaustive => "all sweep candidates".to_string(),
+            Candidates::TopK { k, per_axis } => {
+                format!("top-{k}{} by Eq. 2", if per_axis { " per axis" } else { "" })
+            }
+            Candidates::Binned { bins_per_axis } => format!("{bins_per_axis} bins per axis"),
+        };
+        let temps = match self.temporary {
+            Temporary::Sweep => "sweep".to_string(),
+            Temporary::Binned { bins } => format!("binned ({bins} bins)"),
+        };
+        format!(
+            "temporary-subtree SAH (Wodniok & Goesele): {cands}{}, {temps} temporaries, greedy at <= {} prims, max leaf {}",
+            if self.always_include_greedy_best { " + greedy best" } else { "" },
+            self.greedy_below,
+            self.max_leaf_size
+        )
+    }
+}
+
+/// The temporary-subtree SAH builder of Wodniok & Goesele.
+#[derive(Clone, Debug)]
+pub struct TsahBuilder {
+    /// Its configuration.
+    pub config: TsahConfig,
+    name: String,
+}
+
+impl Default for TsahBuilder {
+    fn default() -> Self {
+        Self::new(TsahConfig::default())
+    }
+}
+
+impl TsahBuilder {
+    /// A builder with the given configuration, named `"tsah"`.
+    pub fn new(config: TsahConfig) -> Self {
+        Self::named("tsah", config)
+    }
+
+    /// A builder with the given configuration and [`Builder::name`].
+    pub fn named(name: impl Into<String>, config: TsahConfig) -> Self {
+        Self {
+            config,
+            name: name.into(),
+        }
+    }
+}
+
+impl Builder for TsahBuilder {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn describe(&self) -> String {
+        self.config.describe()
+    }
+
+    fn build(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
+        self.config.validate()?;
+        let c = &self.config;
+        let params = EngineParams {
+            candidates: c.candidates,
+            include_greedy: c.always_include_greedy_best,
+            greedy_below: c.greedy_below,
+            max_leaf_size: c.max_leaf_size,
+        };
+        let rater = TemporaryRater {
+            cost: input.cost,
+            max_leaf: c.max_leaf_size,
+            temporary: c.temporary,
+        };
+        Ok(engine::build(input, &params, &rater))
+    }
+}
 
 /// Registry entries of this module.
 pub fn registry_entries() -> Vec<Entry> {
-    Vec::new()
+    vec![
+        Entry {
+            name: "tsah-exhaustive",
+            summary: "temporary-subtree SAH (Wodniok & Goesele), every sweep candidate rated: reference, small inputs only",
+            spatial: false,
+            small_inputs_only: true,
+            make: || Box::new(TsahBuilder::named("tsah-exhaustive", TsahConfig::EXHAUSTIVE)),
+        },
+        Entry {
+            name: "tsah-topk",
+            summary: "temporary-subtree SAH (Wodniok & Goesele), top-k sweep candidates, sweep temporaries: O(N log^2 N)",
+            spatial: false,
+            small_inputs_only: false,
+            make: || Box::new(TsahBuilder::named("tsah-topk", TsahConfig::TOP_K)),
+        },
+        Entry {
+            name: "tsah-binned",
+            summary: "temporary-subtree SAH (Wodniok & Goesele), binned candidates and binned temporaries: the fastest variant",
+            spatial: false,
+            small_inputs_only: false,
+            make: || Box::new(TsahBuilder::named("tsah-binned", TsahConfig::BINNED)),
+        },
+    ]
+}
+
+/// Nodes at least this large rate the two sides of a candidate on two rayon tasks.
+const JOIN_SIDES: usize = 4096;
+
+/// Rates candidates with temporary subtrees.
+pub(crate) struct TemporaryRater {
+    pub cost: sahara_metrics::CostModel,
+    pub max_leaf: usize,
+    pub temporary: Temporary,
+}
+
+impl Rater for TemporaryRater {
+    fn needs_centroids(&self) -> bool {
+        matches!(self.temporary, Temporary::Binned { .. })
+    }
+
+    fn rate(&self, node: &LocalNode, c: &SplitCandidate) -> f64 {
+        let (l, r) = match self.temporary {
+            Temporary::Sweep => sweep_sides(node, c, &self.cost, self.max_leaf),
+            Temporary::Binned { bins } => {
+                let order = &node.orders[c.axis];
+                let side = |ids: &[u32]| {
+                    let mut ids = ids.to_vec();
+                    binned_cost(
+                        &node.bounds,
+                        &node.centroids,
+                        &mut ids,
+                        bins,
+                        &self.cost,
+                        self.max_leaf,
+                        &mut BinnedScratch::default(),
+                    )
+                };
+                join_if(node.len() >= JOIN_SIDES, || side(&order[..c.pos]), || {
+                    side(&order[c.pos..])
+                })
+            }
+        };
+        self.cost.inner_cost(node.area, l.area, l.cost, r.area, r.cost)
+    }
+}
+
+/// The costs of sweep temporaries over both sides of a candidate of a local node.
+pub(crate) fn sweep_sides(
+    node: &LocalNode,
+    c: &SplitCandidate,
+    cost: &sahara_metrics::CostModel,
+    max_leaf: usize,
+) -> (SubtreeCost, SubtreeCost) {
+    let n = node.len();
+    let marks = Marks::new(n);
+    let mut left: [Vec<u32>; 3] = std::array::from_fn(|_| vec![0; c.pos]);
+    let mut right: [Vec<u32>; 3] = std::array::from_fn(|_| vec![0; n - c.pos]);
+    {
+        let [l0, l1, l2] = &mut left;
+        let [r0, r1, r2] = &mut right;
+        sweep::split_orders(
+            node.orders(),
+            c.axis,
+            c.pos,
+            &marks,
+            [l0, l1, l2],
+            [r0, r1, r2],
+        );
+    }
+    let side = |o: &mut [Vec<u32>; 3]| {
+        let [a, b, c] = o;
+        sweep::sweep_cost(
+            &node.bounds,
+            [a, b, c],
+            &marks,
+            cost,
+            max_leaf,
+            &mut SweepScratch::new(),
+        )
+    };
+    join_if(n >= JOIN_SIDES, || side(&mut left), || side(&mut right))
+}
+
+/// `rayon::join` when `cond`, else both closures in order on this thread.
+fn join_if<A: Send, B: Send>(
+    cond: bool,
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    if cond {
+        rayon::join(a, b)
+    } else {
+        (a(), b())
+    }
 }

@@ -72,11 +72,9 @@ impl ClippedPolygon {
             let a = self.vertices[i];
             let b = self.vertices[(i + 1) % self.len];
             let (ia, ib) = (inside(a), inside(b));
-            if ia {
-                if n < MAX_CLIPPED_VERTICES {
-                    out[n] = a;
-                    n += 1;
-                }
+            if ia && n < MAX_CLIPPED_VERTICES {
+                out[n] = a;
+                n += 1;
             }
             if ia != ib {
                 let p = plane_point(a, b, axis, pos);

@@ -40,7 +40,14 @@ impl CostModel {
     /// Eq. 2 of the paper, the greedy cost of a split in which both children stay leaves:
     /// `c_t + (A_l n_l + A_r n_r) c_i / A_p`.
     #[inline]
-    pub fn split_cost(&self, parent_area: f64, left_area: f64, n_left: usize, right_area: f64, n_right: usize) -> f64 {
+    pub fn split_cost(
+        &self,
+        parent_area: f64,
+        left_area: f64,
+        n_left: usize,
+        right_area: f64,
+        n_right: usize,
+    ) -> f64 {
         if parent_area <= 0.0 {
             return self.traversal as f64 + self.leaf_cost(n_left + n_right);
         }
@@ -51,7 +58,14 @@ impl CostModel {
 
     /// Eq. 1 for an inner node whose children cost `c_l` and `c_r`.
     #[inline]
-    pub fn inner_cost(&self, parent_area: f64, left_area: f64, c_l: f64, right_area: f64, c_r: f64) -> f64 {
+    pub fn inner_cost(
+        &self,
+        parent_area: f64,
+        left_area: f64,
+        c_l: f64,
+        right_area: f64,
+        c_r: f64,
+    ) -> f64 {
         if parent_area <= 0.0 {
             return self.traversal as f64 + c_l + c_r;
         }

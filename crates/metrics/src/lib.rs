@@ -16,7 +16,23 @@
 #![warn(missing_docs)]
 
 mod cost;
+pub mod epo;
+mod lcv;
+pub mod predictor;
 mod sah;
+pub mod weighted;
 
 pub use cost::CostModel;
+pub use epo::{
+    endpoint_overlap, epo, epo_breakdown, epo_with_node_weights, sample_surface_endpoints,
+    total_area, Endpoint, EpoBreakdown,
+};
+pub use lcv::lcv;
+pub use predictor::{
+    average_ranks, pearson, spearman, FitError, ForecastReport, PredictorSample, SahEpoPredictor,
+};
 pub use sah::{sah, sah_of_subtree};
+pub use weighted::{
+    camera_box_weight, closest_hits, node_weights, primary_ray_metrics, segment_node_weights,
+    weighted_sah, weighted_sah_from_node_weights, CameraGrid, Hit, PrimaryRayMetrics,
+};

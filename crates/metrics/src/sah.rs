@@ -53,12 +53,20 @@ mod tests {
         let l = Aabb::new(Vec3A::ZERO, Vec3A::new(1.0, 1.0, 1.0));
         let r = Aabb::new(Vec3A::new(1.5, 0.0, 0.0), Vec3A::new(2.0, 1.0, 1.0));
         let bvh = Bvh {
-            nodes: vec![Node::inner(&root, 2), Node::leaf(&l, 0, 2), Node::leaf(&r, 2, 3)],
+            nodes: vec![
+                Node::inner(&root, 2),
+                Node::leaf(&l, 0, 2),
+                Node::leaf(&r, 2, 3),
+            ],
             prim_indices: vec![0, 1, 2, 3, 4],
             spatial_splits: false,
         };
         let c = CostModel::default();
-        let (ap, al, ar) = (root.half_area() as f64, l.half_area() as f64, r.half_area() as f64);
+        let (ap, al, ar) = (
+            root.half_area() as f64,
+            l.half_area() as f64,
+            r.half_area() as f64,
+        );
         let expect = c.inner_cost(ap, al, c.leaf_cost(2), ar, c.leaf_cost(3));
         assert_relative_eq!(sah(&bvh, &c), expect, epsilon = 1e-9);
         assert_eq!(sah(&Bvh::empty(), &c), 0.0);

@@ -14,9 +14,9 @@
 
 use std::path::Path;
 
+use glam::{DMat4, DVec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
-use glam::{DMat4, DVec3};
 use sahara_geom::Vec3A;
 
 use crate::{Mesh, SceneError};
@@ -103,28 +103,18 @@ fn check_glb_header(data: &[u8], file: &Path) -> Result<(), SceneError> {
                 format!("GLB chunk {chunk}: header truncated"),
             ));
         };
-        let next = pos
-            .checked_add(8)
-            .and_then(|p| p.checked_add(len as usize));
-        match next {
-            Some(n) if n <= end => pos = n,
-            _ => {
-                return Err(SceneError::parse(
-                    file,
-                    format!("GLB chunk {chunk}: length {len} runs past the end of the file (truncated?)"),
-                ))
-            }
-        }
+        let next = pos.checked_add(8).and_then(|p| p.checked_add(len as usize));
+        let Some(next) = next.filter(|&n| n <= end) else {
+            let msg = format!("GLB chunk {chunk}: length {len} runs past the end of the file");
+            return Err(SceneError::parse(file, format!("{msg} (truncated?)")));
+        };
+        pos = next;
         chunk += 1;
     }
     Ok(())
 }
 
-fn parse_gltf_inner(
-    data: &[u8],
-    file: &Path,
-    base_dir: Option<&Path>,
-) -> Result<Mesh, SceneError> {
+fn parse_gltf_inner(data: &[u8], file: &Path, base_dir: Option<&Path>) -> Result<Mesh, SceneError> {
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(data)
         .map_err(|e| SceneError::parse(file, format!("invalid glTF: {e}")))?;
     for ext in document.extensions_required() {
@@ -209,7 +199,11 @@ fn parse_gltf_inner(
 
 fn describe(mesh: &gltf::Mesh<'_>, prim: &gltf::Primitive<'_>) -> String {
     match mesh.name() {
-        Some(name) => format!("mesh {} (`{name}`) primitive {}", mesh.index(), prim.index()),
+        Some(name) => format!(
+            "mesh {} (`{name}`) primitive {}",
+            mesh.index(),
+            prim.index()
+        ),
         None => format!("mesh {} primitive {}", mesh.index(), prim.index()),
     }
 }
@@ -230,15 +224,9 @@ fn add_primitive(
         return Ok(());
     }
     let what = || describe(mesh, prim);
-    let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
-        SceneError::parse(file, format!("{}: no POSITION attribute", what()))
-    })?;
-    let raw = read_accessor(&pos_acc, buffers).map_err(|m| {
-        SceneError::parse(
-            file,
-            format!("{}: POSITION accessor {}: {m}", what(), pos_acc.index()),
-        )
-    })?;
+    let pos_acc = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| SceneError::parse(file, format!("{}: no POSITION attribute", what())))?;
     if pos_acc.data_type() != DataType::F32 || pos_acc.dimensions() != Dimensions::Vec3 {
         return Err(SceneError::parse(
             file,
@@ -251,11 +239,20 @@ fn add_primitive(
             ),
         ));
     }
+    let raw = read_accessor(&pos_acc, buffers).map_err(|m| {
+        SceneError::parse(
+            file,
+            format!("{}: POSITION accessor {}: {m}", what(), pos_acc.index()),
+        )
+    })?;
     let vertex_count = pos_acc.count();
     let indices: Vec<u32> = match prim.indices() {
         Some(acc) => {
             if acc.dimensions() != Dimensions::Scalar
-                || !matches!(acc.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+                || !matches!(
+                    acc.data_type(),
+                    DataType::U8 | DataType::U16 | DataType::U32
+                )
             {
                 return Err(SceneError::parse(
                     file,
@@ -287,9 +284,8 @@ fn add_primitive(
             }
         }
         None => {
-            let n = u32::try_from(vertex_count).map_err(|_| {
-                SceneError::parse(file, format!("{}: too many vertices", what()))
-            })?;
+            let n = u32::try_from(vertex_count)
+                .map_err(|_| SceneError::parse(file, format!("{}: too many vertices", what())))?;
             (0..n).collect()
         }
     };
@@ -306,7 +302,10 @@ fn add_primitive(
                     ),
                 ));
             }
-            indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+            indices
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
         }
         Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
             .map(|i| {
@@ -353,11 +352,11 @@ fn add_primitive(
             ]))
         };
         let p = world.transform_point3(DVec3::new(f(0), f(1), f(2)));
-        out.positions.push(Vec3A::new(p.x as f32, p.y as f32, p.z as f32));
+        out.positions
+            .push(Vec3A::new(p.x as f32, p.y as f32, p.z as f32));
     }
     let base = base as u32;
-    out.indices
-        .extend(tris.iter().map(|t| t.map(|i| i + base)));
+    out.indices.extend(tris.iter().map(|t| t.map(|i| i + base)));
     Ok(())
 }
 
@@ -367,9 +366,7 @@ fn read_accessor(acc: &gltf::Accessor<'_>, buffers: &[&[u8]]) -> Result<Vec<u8>,
     if acc.sparse().is_some() {
         return Err("sparse accessors are not supported".to_string());
     }
-    let view = acc
-        .view()
-        .ok_or_else(|| "has no buffer view".to_string())?;
+    let view = acc.view().ok_or_else(|| "has no buffer view".to_string())?;
     let elem = acc.size();
     let count = acc.count();
     if count == 0 {
@@ -385,7 +382,10 @@ fn read_accessor(acc: &gltf::Accessor<'_>, buffers: &[&[u8]]) -> Result<Vec<u8>,
         .get(view.buffer().index())
         .ok_or_else(|| format!("buffer {} is missing", view.buffer().index()))?;
     let overflow = || "offsets overflow".to_string();
-    let view_end = view.offset().checked_add(view.length()).ok_or_else(overflow)?;
+    let view_end = view
+        .offset()
+        .checked_add(view.length())
+        .ok_or_else(overflow)?;
     if view_end > buffer.len() {
         return Err(format!(
             "buffer view {} (bytes {}..{view_end}) runs past the end of buffer {} ({} bytes)",
@@ -395,7 +395,10 @@ fn read_accessor(acc: &gltf::Accessor<'_>, buffers: &[&[u8]]) -> Result<Vec<u8>,
             buffer.len()
         ));
     }
-    let start = view.offset().checked_add(acc.offset()).ok_or_else(overflow)?;
+    let start = view
+        .offset()
+        .checked_add(acc.offset())
+        .ok_or_else(overflow)?;
     let end = stride
         .checked_mul(count - 1)
         .and_then(|x| x.checked_add(elem))

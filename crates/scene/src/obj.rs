@@ -193,10 +193,7 @@ impl Parser<'_> {
         let mut xyz = [0f32; 3];
         for (k, c) in xyz.iter_mut().enumerate() {
             let tok = toks.next().ok_or_else(|| {
-                self.err(
-                    line_no,
-                    format!("vertex has {k} coordinates, 3 are needed"),
-                )
+                self.err(line_no, format!("vertex has {k} coordinates, 3 are needed"))
             })?;
             *c = parse_f32(tok).ok_or_else(|| {
                 self.err(
@@ -231,9 +228,8 @@ impl Parser<'_> {
         let n = self.mesh.positions.len() as i64;
         for tok in toks {
             let vpart = tok.split(|&b| b == b'/').next().unwrap_or(tok);
-            let idx = parse_index(vpart).ok_or_else(|| {
-                self.err(line_no, format!("invalid face vertex `{}`", show(tok)))
-            })?;
+            let idx = parse_index(vpart)
+                .ok_or_else(|| self.err(line_no, format!("invalid face vertex `{}`", show(tok))))?;
             let resolved = if idx > 0 {
                 idx - 1
             } else if idx < 0 {
@@ -321,7 +317,10 @@ mod tests {
     #[test]
     fn errors_name_the_line() {
         let e = parse("v 0 0 0\nv 1 2 abc\n").unwrap_err().to_string();
-        assert!(e.contains("t.obj") && e.contains("line 2") && e.contains("abc"), "{e}");
+        assert!(
+            e.contains("t.obj") && e.contains("line 2") && e.contains("abc"),
+            "{e}"
+        );
         let e = parse("v 0 0 0\nv 1 2\n").unwrap_err().to_string();
         assert!(e.contains("line 2"), "{e}");
         let e = parse("v 0 0 0\nv 1 0 0\nf 1 2\n").unwrap_err().to_string();
@@ -331,12 +330,27 @@ mod tests {
         let e = parse("v 0 0 0\nf 1 x 1\n").unwrap_err().to_string();
         assert!(e.contains("`x`"), "{e}");
         let e = parse("v 0 0 0\nf 1 -2 1\n").unwrap_err();
-        assert!(matches!(e, SceneError::IndexOutOfRange { index: -2, .. }), "{e}");
+        assert!(
+            matches!(e, SceneError::IndexOutOfRange { index: -2, .. }),
+            "{e}"
+        );
         let e = parse("v 0 0 0\nf 1 1 99999999999999999999999\n").unwrap_err();
         assert!(matches!(e, SceneError::IndexOutOfRange { .. }), "{e}");
         let e = parse("v 0 0 0\nv inf 0 0\nf 1 2 1\n").unwrap_err();
-        assert!(matches!(e, SceneError::NonFinite { vertex_index: 1, .. }), "{e}");
-        assert!(matches!(parse("# nothing\n"), Err(SceneError::Empty { .. })));
+        assert!(
+            matches!(
+                e,
+                SceneError::NonFinite {
+                    vertex_index: 1,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(matches!(
+            parse("# nothing\n"),
+            Err(SceneError::Empty { .. })
+        ));
         assert!(parse_obj(b"\x00\x01\x02 junk\n", Path::new("b.obj")).is_err());
     }
 }

@@ -3,7 +3,9 @@
 //! * [`scalar`]: closest-hit and any-hit traversal of the binary [`Bvh`] (near child first,
 //!   robust slab test, watertight triangles): the reference every faster kernel is checked
 //!   against;
-//! * [`brute`]: a brute-force tracer that tests every triangle, for tests.
+//! * [`brute`]: a brute-force tracer that tests every triangle, for tests;
+//! * [`wide`]: 4- and 8-wide BVHs collapsed from the binary tree, with SSE2 / AVX2 kernels
+//!   (and a portable fallback) that return exactly the reference's hits.
 //!
 //! **Traversal never knows the builder**: kernels see only a [`Bvh`] and the triangles.
 //!
@@ -28,9 +30,11 @@
 pub mod brute;
 pub mod scalar;
 mod stats;
+pub mod wide;
 
 pub use sahara_bvh::Bvh;
 pub use stats::{NoStats, TraversalStats, WorkCounters};
+pub use wide::{simd_backend, Backend, Bvh4, Bvh8, Layout, ParseLayoutError, WideBvh, WideNode};
 
 /// The result of a closest-hit query: distance, primitive and barycentrics (`u` weights
 /// vertex 1, `v` vertex 2). A miss has `t = +inf` and `prim = u32::MAX`.

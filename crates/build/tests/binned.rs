@@ -1,0 +1,252 @@
+//! Tests of the binned SAH builder and its cost-only entry point.
+
+use sahara_build::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
+use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_geom::rng::Pcg32;
+use sahara_geom::{Triangle, Vec3A};
+use sahara_metrics::{sah, CostModel};
+
+fn rand_point(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3A {
+    Vec3A::new(
+        rng.range_f32(lo, hi),
+        rng.range_f32(lo, hi),
+        rng.range_f32(lo, hi),
+    )
+}
+
+/// Random triangles of random sizes in a 100³ box.
+fn soup(n: usize, seed: u64) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(seed, 1);
+    (0..n)
+        .map(|_| {
+            let c = rand_point(&mut rng, 0.0, 100.0);
+            let s = rng.range_f32(0.01, 5.0);
+            Triangle::new(
+                c + rand_point(&mut rng, -s, s),
+                c + rand_point(&mut rng, -s, s),
+                c + rand_point(&mut rng, -s, s),
+            )
+        })
+        .collect()
+}
+
+/// Thousands of triangles whose box centroids (nearly) coincide, spanning a big box.
+fn clustered(n: usize) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(7, 3);
+    let c = Vec3A::splat(50.0);
+    (0..n)
+        .map(|i| {
+            let s = rng.range_f32(0.1, 50.0);
+            let j = if i % 2 == 0 {
+                Vec3A::ZERO
+            } else {
+                rand_point(&mut rng, -1e-4, 1e-4)
+            };
+            // Symmetric about c (+ jitter): the box centroid is c + j.
+            Triangle::new(
+                c + j + Vec3A::new(-s, -s, 0.0),
+                c + j + Vec3A::new(s, 0.0, -s),
+                c + j + Vec3A::new(0.0, s, s),
+            )
+        })
+        .collect()
+}
+
+fn degenerate_mix() -> Vec<Triangle> {
+    let mut tris = soup(300, 11);
+    let p = Vec3A::new(3.0, 4.0, 5.0);
+    // Zero-area (collinear), index-degenerate (repeated vertex), point triangles.
+    for i in 0..200 {
+        let o = Vec3A::splat(i as f32 * 0.1);
+        tris.push(Triangle::new(o, o + Vec3A::X, o + Vec3A::X * 2.0));
+        tris.push(Triangle::new(o, o, o + Vec3A::Y));
+        tris.push(Triangle::new(p, p, p));
+    }
+    // Exact duplicates.
+    let dup = tris[5];
+    tris.extend(std::iter::repeat_n(dup, 50));
+    tris
+}
+
+fn flat_scene(n: usize) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(5, 9);
+    (0..n)
+        .map(|_| {
+            let c = Vec3A::new(rng.range_f32(0.0, 100.0), rng.range_f32(0.0, 100.0), 2.0);
+            let a = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
+            let b = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
+            Triangle::new(c, c + a, c + b)
+        })
+        .collect()
+}
+
+fn max_leaf(bvh: &Bvh) -> usize {
+    bvh.nodes
+        .iter()
+        .filter(|n| n.is_leaf())
+        .map(|n| n.count as usize)
+        .max()
+        .unwrap_or(0)
+}
+
+fn build(tris: &[Triangle], config: BinnedConfig) -> Bvh {
+    let input = BuildInput::new(tris, CostModel::default()).unwrap();
+    let bvh = BinnedBuilder::new(config).build(&input).unwrap();
+    bvh.validate(tris).unwrap();
+    assert!(!bvh.spatial_splits);
+    assert!(max_leaf(&bvh) <= config.max_leaf_size);
+    bvh
+}
+
+fn bits(bvh: &Bvh) -> Vec<u32> {
+    let mut v = Vec::new();
+    for n in &bvh.nodes {
+        v.extend(n.min.iter().chain(&n.max).map(|x| x.to_bits()));
+        v.extend([n.index, n.count]);
+    }
+    v.extend(&bvh.prim_indices);
+    v
+}
+
+#[test]
+fn random_soups_validate() {
+    for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (5000, 5)] {
+        for config in [BinnedConfig::DEFAULT, BinnedConfig::FAST, BinnedConfig::FINE] {
+            build(&soup(n, seed), config);
+        }
+    }
+    let tiny_leaves = BinnedConfig {
+        max_leaf_size: 1,
+        ..BinnedConfig::DEFAULT
+    };
+    build(&soup(3000, 8), tiny_leaves);
+}
+
+#[test]
+fn clustered_centroids_respect_max_leaf() {
+    let tris = clustered(4000);
+    let bvh = build(&tris, BinnedConfig::DEFAULT);
+    assert!(bvh.stats().depth < 200);
+}
+
+#[test]
+fn degenerate_inputs() {
+    build(&degenerate_mix(), BinnedConfig::DEFAULT);
+    let p = Vec3A::new(1.0, -2.0, 3.0);
+    let point = vec![Triangle::new(p, p, p); 1000];
+    let bvh = build(&point, BinnedConfig::DEFAULT);
+    // Median splits make a balanced tree.
+    assert!(bvh.stats().depth <= 12, "depth {}", bvh.stats().depth);
+    build(&[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)], BinnedConfig::DEFAULT);
+
+    let input = BuildInput::new(&[], CostModel::default()).unwrap();
+    assert_eq!(BinnedBuilder::default().build(&input).unwrap(), Bvh::empty());
+    assert_eq!(
+        binned_cost_only(&input, &mut [], &BinnedConfig::default()),
+        0.0
+    );
+}
+
+#[test]
+fn flat_scene_validates() {
+    build(&flat_scene(3000), BinnedConfig::DEFAULT);
+}
+
+#[test]
+fn adversarial_geometric_spacing_is_depth_bounded() {
+    // Centroids at x = 1.01^i: the best plane peels a few triangles per level.
+    let tris: Vec<Triangle> = (0..4000)
+        .map(|i| {
+            let o = Vec3A::new(1.01f32.powi(i), 0.0, 0.0);
+            Triangle::new(o, o + Vec3A::Y * 0.01, o + Vec3A::Z * 0.01)
+        })
+        .collect();
+    let bvh = build(&tris, BinnedConfig::DEFAULT);
+    assert!(bvh.stats().depth <= 96 + 13, "depth {}", bvh.stats().depth);
+}
+
+#[test]
+fn invalid_config_is_rejected() {
+    let tris = soup(10, 1);
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    for config in [
+        BinnedConfig::with_bins(1),
+        BinnedConfig {
+            max_leaf_size: 0,
+            ..BinnedConfig::DEFAULT
+        },
+    ] {
+        assert!(BinnedBuilder::new(config).build(&input).is_err());
+    }
+}
+
+#[test]
+fn cost_only_equals_sah_of_tree() {
+    for cost in [CostModel::AILA, CostModel::UNIT] {
+        for (tris, config) in [
+            (soup(20_000, 21), BinnedConfig::DEFAULT),
+            (soup(3000, 22), BinnedConfig::FAST),
+            (clustered(3000), BinnedConfig::FINE),
+            (degenerate_mix(), BinnedConfig::DEFAULT),
+            (flat_scene(2000), BinnedConfig::DEFAULT),
+        ] {
+            let input = BuildInput::new(&tris, cost).unwrap();
+            let bvh = BinnedBuilder::new(config).build(&input).unwrap();
+            let mut prims: Vec<u32> = (0..tris.len() as u32).collect();
+            let c = binned_cost_only(&input, &mut prims, &config);
+            let s = sah(&bvh, &cost);
+            assert!((c - s).abs() <= 1e-9 * s, "cost-only {c} vs sah {s}");
+            // The cost-only pass leaves the primitives in the tree's leaf order.
+            assert_eq!(prims, bvh.prim_indices);
+        }
+    }
+}
+
+#[test]
+fn cost_only_on_a_subset() {
+    let tris = soup(4000, 31);
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    let subset: Vec<Triangle> = tris.iter().step_by(3).copied().collect();
+    let sub_input = BuildInput::new(&subset, CostModel::default()).unwrap();
+    let bvh = BinnedBuilder::default().build(&sub_input).unwrap();
+    let mut prims: Vec<u32> = (0..tris.len() as u32).step_by(3).collect();
+    let c = binned_cost_only(&input, &mut prims, &BinnedConfig::default());
+    let s = sah(&bvh, &input.cost);
+    assert!((c - s).abs() <= 1e-9 * s, "{c} vs {s}");
+}
+
+#[test]
+fn deterministic_across_thread_counts() {
+    let tris = soup(60_000, 41);
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let bvh = BinnedBuilder::default().build(&input).unwrap();
+                let mut prims: Vec<u32> = (0..tris.len() as u32).collect();
+                let c = binned_cost_only(&input, &mut prims, &BinnedConfig::default());
+                (bits(&bvh), c.to_bits())
+            })
+    };
+    let one = run(1);
+    let two = run(2);
+    assert!(one == two, "trees differ between 1 and 2 threads");
+    assert!(one == run(3));
+}
+
+#[test]
+fn more_bins_do_not_hurt_much_and_registry_names() {
+    let tris = soup(20_000, 51);
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    let s8 = sah(&BinnedBuilder::new(BinnedConfig::FAST).build(&input).unwrap(), &input.cost);
+    let s128 = sah(&BinnedBuilder::new(BinnedConfig::FINE).build(&input).unwrap(), &input.cost);
+    assert!(s128 < s8 * 1.02, "128 bins {s128} vs 8 bins {s8}");
+    for name in ["binned", "binned-8", "binned-128"] {
+        let b = registry::by_name(name).expect(name);
+        assert_eq!(b.name(), name);
+        b.build(&input).unwrap().validate(&tris).unwrap();
+    }
+}

@@ -1,0 +1,119 @@
+//! The look-ahead SAH builders (after Popov et al.) and the hybrid with temporary subtrees.
+
+mod tsah_support;
+
+use sahara_build::popov::{Frontier, PopovBuilder, PopovConfig};
+use sahara_build::sweep::{SweepBuilder, SweepConfig};
+use sahara_build::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
+use sahara_build::{registry, BuildInput, Builder};
+use sahara_geom::Triangle;
+use sahara_metrics::{sah, CostModel};
+use tsah_support::*;
+
+fn inputs() -> Vec<(String, Vec<Triangle>)> {
+    let mut v: Vec<(String, Vec<Triangle>)> = vec![
+        ("soup".into(), soup(2000, 1)),
+        ("clustered".into(), clustered(2000, 2)),
+        ("mesh".into(), mesh_like(25, 3)),
+    ];
+    v.extend(
+        degenerate_cases()
+            .into_iter()
+            .map(|(n, t)| (n.to_string(), t)),
+    );
+    v
+}
+
+#[test]
+fn presets_valid_deterministic_bounded() {
+    for name in ["popov-d2", "popov-d3", "hybrid"] {
+        let b = registry::by_name(name).expect(name);
+        assert_eq!(b.name(), name);
+        for (what, tris) in inputs() {
+            check_builder(b.as_ref(), &tris, 8, &what);
+        }
+    }
+    let b = PopovBuilder::new(PopovConfig {
+        depth: 3,
+        k: 2,
+        frontier: Frontier::Temporary,
+        greedy_below: 0,
+        max_leaf_size: 3,
+    });
+    for (what, tris) in inputs() {
+        check_builder(&b, &tris, 3, &what);
+    }
+}
+
+/// Depth 1 with leaf frontier is the greedy sweep builder, bit for bit.
+#[test]
+fn depth_one_is_sweep() {
+    for (what, tris) in inputs() {
+        for max_leaf in [1, 8] {
+            let p = PopovBuilder::new(PopovConfig {
+                depth: 1,
+                k: 3,
+                frontier: Frontier::Leaf,
+                greedy_below: 0,
+                max_leaf_size: max_leaf,
+            });
+            let s = SweepBuilder::new(SweepConfig::DEFAULT.with_max_leaf_size(max_leaf));
+            assert_eq!(build_in(&p, &tris, 2), build_in(&s, &tris, 1), "{what}");
+        }
+    }
+}
+
+/// Depth 1 with temporary frontier is the top-k temporary-subtree builder, bit for bit.
+#[test]
+fn hybrid_depth_one_is_tsah_top_k() {
+    for (what, tris) in inputs() {
+        for (k, greedy_below) in [(1, 0), (4, 16)] {
+            let p = PopovBuilder::new(PopovConfig {
+                depth: 1,
+                k,
+                frontier: Frontier::Temporary,
+                greedy_below,
+                max_leaf_size: 8,
+            });
+            let t = TsahBuilder::new(TsahConfig {
+                candidates: Candidates::TopK { k, per_axis: false },
+                temporary: Temporary::Sweep,
+                greedy_below,
+                always_include_greedy_best: true,
+                max_leaf_size: 8,
+            });
+            assert_eq!(build_in(&p, &tris, 2), build_in(&t, &tris, 1), "{what}");
+        }
+    }
+}
+
+/// The hybrid applied at every node (no greedy nodes) never has a higher SAH than the sweep
+/// builder: every look-ahead value is at most the cost of the sweep tree it could roll out.
+#[test]
+fn hybrid_everywhere_sah_never_above_sweep() {
+    for cost in [CostModel::AILA, CostModel::UNIT] {
+        for (what, tris) in inputs() {
+            let input = BuildInput::new(&tris, cost).unwrap();
+            let s = sah(&SweepBuilder::default().build(&input).unwrap(), &cost);
+            let config = PopovConfig {
+                greedy_below: 0,
+                ..PopovConfig::HYBRID
+            };
+            let h = sah(&PopovBuilder::new(config).build(&input).unwrap(), &cost);
+            assert!(h <= s * (1.0 + 1e-9), "{what}: hybrid {h} > sweep {s}");
+        }
+    }
+}
+
+#[test]
+fn rejects_bad_configs() {
+    let tris = soup(10, 1);
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    for c in [
+        PopovConfig { depth: 0, ..PopovConfig::D2 },
+        PopovConfig { k: 0, ..PopovConfig::D2 },
+        PopovConfig { max_leaf_size: 0, ..PopovConfig::D2 },
+    ] {
+        assert!(PopovBuilder::new(c).build(&input).is_err());
+    }
+}

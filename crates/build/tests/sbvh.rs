@@ -1,0 +1,336 @@
+//! Tests of the SBVH builder (spatial splits).
+
+use sahara_build::binned::{BinnedBuilder, BinnedConfig};
+use sahara_build::sbvh::{sbvh_cost_only, ObjectSplitMethod, SbvhBuilder, SbvhConfig};
+use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_geom::rng::Pcg32;
+use sahara_geom::{Triangle, Vec3A};
+use sahara_metrics::{sah, CostModel};
+
+fn rand_point(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3A {
+    Vec3A::new(
+        rng.range_f32(lo, hi),
+        rng.range_f32(lo, hi),
+        rng.range_f32(lo, hi),
+    )
+}
+
+fn soup(n: usize, seed: u64, size: f32) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(seed, 1);
+    (0..n)
+        .map(|_| {
+            let c = rand_point(&mut rng, 0.0, 100.0);
+            let s = rng.range_f32(0.01, size);
+            Triangle::new(
+                c + rand_point(&mut rng, -s, s),
+                c + rand_point(&mut rng, -s, s),
+                c + rand_point(&mut rng, -s, s),
+            )
+        })
+        .collect()
+}
+
+fn clustered(n: usize) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(7, 3);
+    let c = Vec3A::splat(50.0);
+    (0..n)
+        .map(|i| {
+            let s = rng.range_f32(0.1, 50.0);
+            let j = if i % 2 == 0 {
+                Vec3A::ZERO
+            } else {
+                rand_point(&mut rng, -1e-4, 1e-4)
+            };
+            Triangle::new(
+                c + j + Vec3A::new(-s, -s, 0.0),
+                c + j + Vec3A::new(s, 0.0, -s),
+                c + j + Vec3A::new(0.0, s, s),
+            )
+        })
+        .collect()
+}
+
+fn degenerate_mix() -> Vec<Triangle> {
+    let mut tris = soup(300, 11, 20.0);
+    let p = Vec3A::new(3.0, 4.0, 5.0);
+    for i in 0..200 {
+        let o = Vec3A::splat(i as f32 * 0.1);
+        tris.push(Triangle::new(o, o + Vec3A::X * 30.0, o + Vec3A::X * 60.0));
+        tris.push(Triangle::new(o, o, o + Vec3A::new(20.0, 30.0, 40.0)));
+        tris.push(Triangle::new(p, p, p));
+    }
+    let dup = tris[5];
+    tris.extend(std::iter::repeat_n(dup, 50));
+    tris
+}
+
+fn flat_scene(n: usize) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(5, 9);
+    (0..n)
+        .map(|_| {
+            let c = Vec3A::new(rng.range_f32(0.0, 100.0), rng.range_f32(0.0, 100.0), 2.0);
+            let a = Vec3A::new(rng.range_f32(-9.0, 9.0), rng.range_f32(-9.0, 9.0), 0.0);
+            let b = Vec3A::new(rng.range_f32(-9.0, 9.0), rng.range_f32(-9.0, 9.0), 0.0);
+            Triangle::new(c, c + a, c + b)
+        })
+        .collect()
+}
+
+/// A grid of small triangles crossed by long thin diagonal triangles: object splits cannot
+/// separate the diagonals from the grid, spatial splits can.
+fn needs_spatial() -> Vec<Triangle> {
+    let mut tris = Vec::new();
+    for i in 0..40 {
+        for j in 0..40 {
+            let o = Vec3A::new(i as f32 * 2.5, j as f32 * 2.5, (i + j) as f32 % 3.0);
+            tris.push(Triangle::new(o, o + Vec3A::X * 0.5, o + Vec3A::Y * 0.5));
+        }
+    }
+    for k in 0..100 {
+        let t = k as f32;
+        let a = Vec3A::new(0.0, t, 0.5);
+        let b = Vec3A::new(100.0, 100.0 - t, 1.5);
+        tris.push(Triangle::new(a, b, b + Vec3A::Z * 0.3));
+        let a = Vec3A::new(t, 0.0, 2.0);
+        let b = Vec3A::new(100.0 - t, 100.0, 0.0);
+        tris.push(Triangle::new(a, b, b + Vec3A::X * 0.3));
+    }
+    tris
+}
+
+fn max_leaf(bvh: &Bvh) -> usize {
+    bvh.nodes
+        .iter()
+        .filter(|n| n.is_leaf())
+        .map(|n| n.count as usize)
+        .max()
+        .unwrap_or(0)
+}
+
+fn build_with(tris: &[Triangle], config: SbvhConfig, cost: CostModel) -> Bvh {
+    let input = BuildInput::new(tris, cost).unwrap();
+    let bvh = SbvhBuilder::new(config).build(&input).unwrap();
+    bvh.validate(tris).unwrap();
+    if !tris.is_empty() {
+        assert!(bvh.spatial_splits);
+    }
+    assert!(max_leaf(&bvh) <= config.max_leaf_size);
+    let budget = config.budget_for(tris.len());
+    assert!(bvh.prim_indices.len() <= tris.len() + budget);
+    bvh
+}
+
+fn build(tris: &[Triangle], config: SbvhConfig) -> Bvh {
+    build_with(tris, config, CostModel::default())
+}
+
+fn bits(bvh: &Bvh) -> Vec<u32> {
+    let mut v = Vec::new();
+    for n in &bvh.nodes {
+        v.extend(n.min.iter().chain(&n.max).map(|x| x.to_bits()));
+        v.extend([n.index, n.count]);
+    }
+    v.extend(&bvh.prim_indices);
+    v
+}
+
+fn configs() -> Vec<SbvhConfig> {
+    vec![
+        SbvhConfig::DEFAULT,
+        SbvhConfig::FAST,
+        SbvhConfig {
+            unsplitting: false,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            alpha: 0.0,
+            max_leaf_size: 1,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            spatial_bins: 0,
+            ..SbvhConfig::DEFAULT
+        },
+    ]
+}
+
+#[test]
+fn random_soups_validate() {
+    for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (3000, 5)] {
+        for config in configs() {
+            build(&soup(n, seed, 8.0), config);
+        }
+    }
+}
+
+#[test]
+fn spatial_splits_happen_and_duplicate() {
+    let tris = needs_spatial();
+    let bvh = build(&tris, SbvhConfig::DEFAULT);
+    assert!(bvh.prim_indices.len() > tris.len());
+    // Without spatial bins there is no duplication.
+    let plain = build(
+        &tris,
+        SbvhConfig {
+            spatial_bins: 0,
+            ..SbvhConfig::DEFAULT
+        },
+    );
+    assert_eq!(plain.prim_indices.len(), tris.len());
+}
+
+#[test]
+fn sah_below_binned_where_spatial_splits_help() {
+    let tris = needs_spatial();
+    for cost in [CostModel::AILA, CostModel::UNIT] {
+        let input = BuildInput::new(&tris, cost).unwrap();
+        let binned = sah(&BinnedBuilder::new(BinnedConfig::DEFAULT).build(&input).unwrap(), &cost);
+        let sbvh = sah(&build_with(&tris, SbvhConfig::DEFAULT, cost), &cost);
+        assert!(sbvh < 0.8 * binned, "sbvh {sbvh} vs binned {binned}");
+    }
+}
+
+#[test]
+fn zero_budget_means_no_duplication() {
+    let tris = needs_spatial();
+    let bvh = build(
+        &tris,
+        SbvhConfig {
+            duplication_budget: 0.0,
+            ..SbvhConfig::DEFAULT
+        },
+    );
+    assert_eq!(bvh.prim_indices.len(), tris.len());
+    let small = SbvhConfig {
+        duplication_budget: 0.05,
+        ..SbvhConfig::DEFAULT
+    };
+    build(&tris, small);
+}
+
+#[test]
+fn clustered_centroids_respect_max_leaf() {
+    for config in configs() {
+        build(&clustered(3000), config);
+    }
+}
+
+#[test]
+fn degenerate_inputs() {
+    for config in configs() {
+        build(&degenerate_mix(), config);
+        let p = Vec3A::new(1.0, -2.0, 3.0);
+        let bvh = build(&vec![Triangle::new(p, p, p); 500], config);
+        assert!(bvh.stats().depth <= 12);
+        build(&[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)], config);
+        build(&[], config);
+        // Collinear zero-area triangles along a diagonal.
+        let line: Vec<Triangle> = (0..300)
+            .map(|i| {
+                let o = Vec3A::splat(i as f32 * 0.3);
+                Triangle::new(o, o + Vec3A::splat(40.0), o + Vec3A::splat(20.0))
+            })
+            .collect();
+        build(&line, config);
+    }
+    let input = BuildInput::new(&[], CostModel::default()).unwrap();
+    assert_eq!(SbvhBuilder::default().build(&input).unwrap(), Bvh::empty());
+}
+
+#[test]
+fn flat_scene_validates() {
+    for config in configs() {
+        build(&flat_scene(2000), config);
+    }
+}
+
+#[test]
+fn huge_and_tiny_triangles_mixed() {
+    // A wide range of sizes, as in real scenes: big walls and tiny details.
+    let mut tris = soup(2000, 61, 0.05);
+    let mut rng = Pcg32::new(3, 3);
+    for _ in 0..200 {
+        tris.push(Triangle::new(
+            rand_point(&mut rng, -1000.0, 1000.0),
+            rand_point(&mut rng, -1000.0, 1000.0),
+            rand_point(&mut rng, -1000.0, 1000.0),
+        ));
+    }
+    for config in configs() {
+        build(&tris, config);
+    }
+}
+
+#[test]
+fn invalid_config_is_rejected() {
+    let tris = soup(10, 1, 1.0);
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    for config in [
+        SbvhConfig {
+            max_leaf_size: 0,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            alpha: f32::NAN,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            duplication_budget: -1.0,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            object_split: ObjectSplitMethod::Binned { bins: 1 },
+            ..SbvhConfig::DEFAULT
+        },
+    ] {
+        assert!(SbvhBuilder::new(config).build(&input).is_err());
+    }
+}
+
+#[test]
+fn cost_only_equals_sah_of_tree() {
+    for (tris, config) in [
+        (needs_spatial(), SbvhConfig::DEFAULT),
+        (soup(5000, 71, 10.0), SbvhConfig::DEFAULT),
+        (soup(3000, 72, 10.0), SbvhConfig::FAST),
+        (degenerate_mix(), SbvhConfig::DEFAULT),
+    ] {
+        let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+        let bvh = SbvhBuilder::new(config).build(&input).unwrap();
+        let prims: Vec<u32> = (0..tris.len() as u32).collect();
+        let c = sbvh_cost_only(&input, &prims, &config);
+        let s = sah(&bvh, &input.cost);
+        assert!((c - s).abs() <= 1e-9 * s, "cost-only {c} vs sah {s}");
+    }
+}
+
+#[test]
+fn deterministic_across_thread_counts() {
+    let mut tris = soup(30_000, 81, 6.0);
+    tris.extend(needs_spatial());
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let bvh = SbvhBuilder::default().build(&input).unwrap();
+                bvh.validate(&tris).unwrap();
+                bits(&bvh)
+            })
+    };
+    let one = run(1);
+    assert!(one == run(2), "trees differ between 1 and 2 threads");
+}
+
+#[test]
+fn registry_entry() {
+    let b = registry::by_name("sbvh").unwrap();
+    assert_eq!(b.name(), "sbvh");
+    let e = registry::entries().into_iter().find(|e| e.name == "sbvh").unwrap();
+    assert!(e.spatial);
+    let tris = needs_spatial();
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    b.build(&input).unwrap().validate(&tris).unwrap();
+}

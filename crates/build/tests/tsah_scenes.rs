@@ -1,0 +1,247 @@
+//! Measurements of the sweep, temporary-subtree and look-ahead builders on the shared scenes
+//! (all `#[ignore]`: run them in release mode, for example
+//! `cargo test --release -p sahara-build --test tsah_scenes -- --ignored --nocapture measure`).
+//!
+//! Environment: `SAHARA_SHARED_SCENES` (folder, default `/work/shared/scenes` or
+//! `../shared/scenes`), `TSAH_SCENES` (comma-separated scene names), `TSAH_BUILDERS`
+//! (comma-separated registry names), `TSAH_EPO=1` to also compute the EPO metric.
+//! Scenes are read with a minimal OBJ reader (`v` and `f` records, polygons fan-split;
+//! `.obj.gz` through the `gzip` command).
+
+mod tsah_support;
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use sahara_build::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
+use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_geom::{Triangle, Vec3A};
+use sahara_metrics::{sah, CostModel};
+
+fn scenes_dir() -> PathBuf {
+    if let Ok(d) = std::env::var("SAHARA_SHARED_SCENES") {
+        return d.into();
+    }
+    for d in ["/work/shared/scenes", "../shared/scenes", "../../../shared/scenes"] {
+        if Path::new(d).is_dir() {
+            return d.into();
+        }
+    }
+    "/work/shared/scenes".into()
+}
+
+fn load(name: &str) -> Option<Vec<Triangle>> {
+    let dir = scenes_dir();
+    let plain = dir.join(format!("{name}.obj"));
+    let gz = dir.join(format!("{name}.obj.gz"));
+    let text = if plain.is_file() {
+        std::fs::read_to_string(&plain).ok()?
+    } else if gz.is_file() {
+        let out = std::process::Command::new("gzip")
+            .arg("-dc")
+            .arg(&gz)
+            .output()
+            .ok()?;
+        String::from_utf8(out.stdout).ok()?
+    } else {
+        return None;
+    };
+    let mut v: Vec<Vec3A> = Vec::new();
+    let mut tris = Vec::new();
+    for line in text.lines() {
+        let mut it = line.split_ascii_whitespace();
+        match it.next() {
+            Some("v") => {
+                let c: Vec<f32> = it.take(3).map(|x| x.parse().unwrap()).collect();
+                v.push(Vec3A::new(c[0], c[1], c[2]));
+            }
+            Some("f") => {
+                let idx: Vec<usize> = it
+                    .map(|t| {
+                        let i: i64 = t.split('/').next().unwrap().parse().unwrap();
+                        if i < 0 {
+                            (v.len() as i64 + i) as usize
+                        } else {
+                            i as usize - 1
+                        }
+                    })
+                    .collect();
+                for k in 1..idx.len() - 1 {
+                    tris.push(Triangle::new(v[idx[0]], v[idx[k]], v[idx[k + 1]]));
+                }
+            }
+            _ => {}
+        }
+    }
+    Some(tris)
+}
+
+fn list(var: &str, default: &str) -> Vec<String> {
+    std::env::var(var)
+        .unwrap_or_else(|_| default.to_string())
+        .split(',')
+        .filter(|s| !s.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
+struct Row {
+    ms: f64,
+    sah: f64,
+    epo: Option<f64>,
+    leaves: usize,
+}
+
+fn measure(builder: &dyn Builder, tris: &[Triangle], epo: bool) -> (Row, Bvh) {
+    let input = BuildInput::new(tris, CostModel::default()).unwrap();
+    let t = Instant::now();
+    let bvh = builder.build(&input).unwrap();
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    bvh.validate(tris).unwrap();
+    let row = Row {
+        ms,
+        sah: sah(&bvh, &input.cost),
+        epo: epo.then(|| sahara_metrics::epo(&bvh, tris, &input.cost)),
+        leaves: bvh.nodes.iter().filter(|n| n.is_leaf()).count(),
+    };
+    (row, bvh)
+}
+
+fn print_row(scene: &str, n: usize, name: &str, r: &Row, base: Option<&Row>) {
+    let rel = base.map_or(String::new(), |b| format!("{:+.2}%", 100.0 * (r.sah / b.sah - 1.0)));
+    let epo = match (r.epo, base.and_then(|b| b.epo)) {
+        (Some(e), Some(b)) => format!("{e:.3} ({:+.2}%)", 100.0 * (e / b - 1.0)),
+        (Some(e), None) => format!("{e:.3}"),
+        _ => "-".into(),
+    };
+    eprintln!(
+        "| {scene} | {n} | {name} | {:.0} | {:.3} | {rel} | {epo} | {} |",
+        r.ms, r.sah, r.leaves
+    );
+}
+
+/// The registered presets on the shared scenes: build time, SAH (and EPO) relative to sweep.
+#[test]
+#[ignore]
+fn measure_presets() {
+    let scenes = list(
+        "TSAH_SCENES",
+        "sibenik,sponza_dabrovic,stanford_bunny,teapot_in_stadium",
+    );
+    let builders = list("TSAH_BUILDERS", "sweep,tsah-topk,tsah-binned,popov-d2,hybrid");
+    let epo = std::env::var("TSAH_EPO").is_ok();
+    eprintln!("| scene | triangles | builder | build ms | SAH | vs sweep | EPO | leaves |");
+    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|");
+    for scene in &scenes {
+        let Some(tris) = load(scene) else {
+            eprintln!("scene {scene} not found in {}", scenes_dir().display());
+            continue;
+        };
+        let mut base = None;
+        for name in &builders {
+            let b = registry::by_name(name).unwrap_or_else(|| panic!("no builder {name}"));
+            let (row, _) = measure(b.as_ref(), &tris, epo);
+            print_row(scene, tris.len(), name, &row, base.as_ref());
+            if name == "sweep" {
+                base = Some(row);
+            }
+        }
+    }
+}
+
+/// The knobs of the temporary-subtree builder (k, per-axis selection, greedy threshold,
+/// binned candidates and temporaries) on the shared scenes and on procedural ones.
+#[test]
+#[ignore]
+fn measure_knobs() {
+    let scenes = list("TSAH_SCENES", "sibenik,stanford_bunny,teapot_in_stadium,soup,mesh");
+    let epo = std::env::var("TSAH_EPO").is_ok();
+    let base_cfg = TsahConfig::TOP_K;
+    let mut configs: Vec<(String, TsahConfig)> = Vec::new();
+    for k in [1, 2, 4, 8, 16] {
+        configs.push((
+            format!("top-{k}"),
+            TsahConfig { candidates: Candidates::TopK { k, per_axis: false }, ..base_cfg },
+        ));
+    }
+    configs.push((
+        "top-2/axis".into(),
+        TsahConfig { candidates: Candidates::TopK { k: 2, per_axis: true }, ..base_cfg },
+    ));
+    for g in [8, 64, 256] {
+        configs.push((format!("top-4 greedy<={g}"), TsahConfig { greedy_below: g, ..base_cfg }));
+    }
+    for (bins, tbins) in [(4, 8), (4, 16), (8, 16), (4, 32)] {
+        configs.push((
+            format!("binned {bins}/{tbins}"),
+            TsahConfig {
+                candidates: Candidates::Binned { bins_per_axis: bins },
+                temporary: Temporary::Binned { bins: tbins },
+                ..base_cfg
+            },
+        ));
+    }
+    configs.push((
+        "binned 4 cands, sweep temps".into(),
+        TsahConfig { candidates: Candidates::Binned { bins_per_axis: 4 }, ..base_cfg },
+    ));
+    eprintln!("| scene | triangles | config | build ms | SAH | vs sweep | EPO | leaves |");
+    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|");
+    for scene in &scenes {
+        let tris = match scene.as_str() {
+            "soup" => tsah_support::soup(100_000, 5),
+            "mesh" => tsah_support::mesh_like(200, 6),
+            s => match load(s) {
+                Some(t) => t,
+                None => continue,
+            },
+        };
+        let (base, _) = measure(registry::by_name("sweep").unwrap().as_ref(), &tris, epo);
+        print_row(scene, tris.len(), "sweep", &base, None);
+        for (name, cfg) in &configs {
+            let (row, _) = measure(&TsahBuilder::new(*cfg), &tris, epo);
+            print_row(scene, tris.len(), name, &row, Some(&base));
+        }
+    }
+}
+
+/// The 871k-triangle dragon with the sweep and top-k presets (`TSAH_BUILDERS` to change).
+#[test]
+#[ignore]
+fn measure_dragon() {
+    let Some(tris) = load("stanford_dragon") else {
+        eprintln!("stanford_dragon not found");
+        return;
+    };
+    let builders = list("TSAH_BUILDERS", "sweep,tsah-topk");
+    let epo = std::env::var("TSAH_EPO").is_ok();
+    let mut base = None;
+    for name in &builders {
+        let b = registry::by_name(name).unwrap();
+        let (row, _) = measure(b.as_ref(), &tris, epo);
+        print_row("stanford_dragon", tris.len(), name, &row, base.as_ref());
+        if name == "sweep" {
+            base = Some(row);
+        }
+    }
+}
+
+#[test]
+fn obj_reader_reads_polygons() {
+    // A quad and a triangle: three triangles.
+    let dir = std::env::temp_dir().join(format!("tsah-scenes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("q.obj"),
+        "# c\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1/1 -2 -1\n",
+    )
+    .unwrap();
+    std::env::set_var("SAHARA_SHARED_SCENES", &dir);
+    let t = load("q").unwrap();
+    std::env::remove_var("SAHARA_SHARED_SCENES");
+    assert_eq!(t.len(), 3);
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut s = String::new();
+    let _ = std::io::empty().read_to_string(&mut s);
+}

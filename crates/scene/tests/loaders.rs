@@ -1,0 +1,273 @@
+//! Loaders on malformed and small hand-made files: errors name the file and the problem,
+//! and nothing panics.
+
+mod common;
+
+use std::path::Path;
+
+use common::{glb, temp_dir, triangle_bin, triangle_json};
+use sahara_geom::rng::Pcg32;
+use sahara_scene::{
+    load_mesh, parse_gltf, parse_mesh, parse_obj, Format, Scene, SceneError, Vec3A,
+};
+
+const TRI: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+fn write(dir: &Path, name: &str, data: &[u8]) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, data).unwrap();
+    p
+}
+
+#[test]
+fn malformed_obj_names_file_and_line() {
+    let dir = temp_dir("malformed");
+    let p = write(
+        &dir,
+        "broken.obj",
+        b"v 0 0 0\nv 1 0 0\nv 1 2 abc\nf 1 2 3\n",
+    );
+    let e = load_mesh(&p).unwrap_err();
+    assert!(matches!(e, SceneError::Parse { .. }), "{e:?}");
+    let msg = e.to_string();
+    assert!(msg.contains("broken.obj"), "{msg}");
+    assert!(msg.contains("line 3") && msg.contains("abc"), "{msg}");
+
+    // A face referencing vertices that do not exist.
+    let p = write(&dir, "missing.obj", b"v 0 0 0\nv 1 0 0\nf 1 2 3\n");
+    let e = load_mesh(&p).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            SceneError::IndexOutOfRange {
+                triangle: 0,
+                index: 3,
+                vertex_count: 2,
+                ..
+            }
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("missing.obj") && msg.contains("triangle 0"),
+        "{msg}"
+    );
+
+    // A face with two vertices.
+    let p = write(&dir, "short.obj", b"v 0 0 0\nv 1 0 0\nf 1 2\n");
+    let msg = load_mesh(&p).unwrap_err().to_string();
+    assert!(msg.contains("short.obj") && msg.contains("line 3"), "{msg}");
+}
+
+#[test]
+fn nan_vertex_is_an_error() {
+    let dir = temp_dir("nan");
+    let p = write(&dir, "nan.obj", b"v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n");
+    let e = load_mesh(&p).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SceneError::NonFinite {
+                vertex_index: 2,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let msg = e.to_string();
+    assert!(msg.contains("nan.obj") && msg.contains("vertex 2") && msg.contains("non-finite"));
+}
+
+#[test]
+fn out_of_range_index_is_an_error() {
+    let dir = temp_dir("range");
+    let p = write(
+        &dir,
+        "range.obj",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n",
+    );
+    let e = load_mesh(&p).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            SceneError::IndexOutOfRange {
+                triangle: 1,
+                index: 7,
+                vertex_count: 3,
+                ..
+            }
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("range.obj") && msg.contains("out of range"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn obj_gz_round_trip() {
+    use std::io::Write;
+    let dir = temp_dir("gz");
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    enc.write_all(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n")
+        .unwrap();
+    let p = write(&dir, "quad.obj.gz", &enc.finish().unwrap());
+    let s = Scene::from_file(&p).unwrap();
+    assert_eq!(s.name, "quad");
+    assert_eq!(s.triangle_count(), 2);
+    let p = write(&dir, "bad.obj.gz", b"\x1f\x8b\x08garbage");
+    let msg = load_mesh(&p).unwrap_err().to_string();
+    assert!(msg.contains("bad.obj.gz") && msg.contains("gzip"), "{msg}");
+}
+
+#[test]
+fn glb_loads_with_transforms_and_truncated_glb_fails() {
+    let json = triangle_json(r#"[{"mesh":0,"translation":[1,0,0]}]"#, true);
+    let data = glb(&json, &triangle_bin(TRI, [0, 1, 2]));
+    let dir = temp_dir("glb");
+    let p = write(&dir, "tri.glb", &data);
+    let m = load_mesh(&p).unwrap();
+    assert_eq!(m.triangle_count(), 1);
+    assert_eq!(m.positions[0], Vec3A::new(1.0, 0.0, 0.0));
+    assert_eq!(m.positions[2], Vec3A::new(1.0, 1.0, 0.0));
+
+    let half = write(&dir, "half.glb", &data[..data.len() / 2]);
+    let e = load_mesh(&half).unwrap_err();
+    assert!(matches!(e, SceneError::Parse { .. }), "{e:?}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("half.glb") && msg.contains("truncated"),
+        "{msg}"
+    );
+
+    // Every prefix is an error, never a panic.
+    for n in 0..data.len() {
+        assert!(
+            parse_gltf(&data[..n], Path::new("prefix.glb"), None).is_err(),
+            "prefix {n}"
+        );
+    }
+}
+
+#[test]
+fn gltf_hierarchy_and_non_indexed_primitives() {
+    // Root scales by 2 and rotates 90° about z; its child translates by (1, 0, 0).
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let nodes = format!(
+        r#"[{{"children":[1],"scale":[2,2,2],"rotation":[0,0,{s},{s}]}},{{"mesh":0,"translation":[1,0,0]}}]"#
+    );
+    let json = triangle_json(&nodes, false);
+    let m = parse_gltf(
+        &glb(&json, &triangle_bin(TRI, [0, 1, 2])),
+        Path::new("h.glb"),
+        None,
+    )
+    .unwrap();
+    assert_eq!(m.indices, vec![[0, 1, 2]]);
+    // p -> R(2 (p + (1,0,0))) with R: (x, y) -> (-y, x).
+    let expect = [[0.0, 2.0, 0.0], [0.0, 4.0, 0.0], [-2.0, 2.0, 0.0]];
+    for (p, e) in m.positions.iter().zip(expect) {
+        assert!((*p - Vec3A::from_array(e)).length() < 1e-5, "{p} vs {e:?}");
+    }
+}
+
+#[test]
+fn gltf_errors_name_the_element() {
+    // Index 5 of a 3-vertex primitive.
+    let json = triangle_json(r#"[{"mesh":0}]"#, true);
+    let e = parse_gltf(
+        &glb(&json, &triangle_bin(TRI, [0, 5, 2])),
+        Path::new("idx.glb"),
+        None,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SceneError::IndexOutOfRange {
+                triangle: 0,
+                index: 5,
+                vertex_count: 3,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    // NaN coordinate.
+    let mut t = TRI;
+    t[1][2] = f32::NAN;
+    let e = parse_gltf(
+        &glb(&json, &triangle_bin(t, [0, 1, 2])),
+        Path::new("nan.glb"),
+        None,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SceneError::NonFinite {
+                vertex_index: 1,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    // A buffer shorter than declared.
+    let bin = triangle_bin(TRI, [0, 1, 2]);
+    let msg = parse_gltf(&glb(&json, &bin[..20]), Path::new("short.glb"), None)
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("short.glb"), "{msg}");
+    // An accessor past the end of its view.
+    let bad = json.replace(r#""count":3,"type":"VEC3""#, r#""count":4,"type":"VEC3""#);
+    let msg = parse_gltf(&glb(&bad, &bin), Path::new("acc.glb"), None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("acc.glb") && msg.contains("accessor 0"),
+        "{msg}"
+    );
+    // Garbage.
+    assert!(parse_gltf(b"{not json", Path::new("g.gltf"), None).is_err());
+    assert!(parse_gltf(b"glTF\x02\0\0\0\x05\0\0\0", Path::new("g.glb"), None).is_err());
+}
+
+#[test]
+fn random_corruption_never_panics() {
+    let json = triangle_json(r#"[{"mesh":0,"translation":[1,0,0]}]"#, true);
+    let data = glb(&json, &triangle_bin(TRI, [0, 1, 2]));
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\nf -1 -2 -3\n".to_vec();
+    let mut r = Pcg32::new(7, 1);
+    for _ in 0..2000 {
+        for (src, format) in [(&data, Format::Glb), (&obj, Format::Obj)] {
+            let mut d = src.clone();
+            for _ in 0..1 + r.below(4) {
+                let i = r.below(d.len() as u32) as usize;
+                d[i] = r.next_u32() as u8;
+            }
+            if let Ok(m) = parse_mesh(&d, format, Path::new("fuzz")) {
+                m.validate(Path::new("fuzz")).unwrap();
+            }
+        }
+    }
+    for n in 0..200 {
+        let garbage: Vec<u8> = (0..n * 7).map(|_| r.next_u32() as u8).collect();
+        for format in Format::ALL {
+            let _ = parse_mesh(&garbage, format, Path::new("garbage"));
+        }
+    }
+    assert!(parse_obj(&[0xff, 0xfe, b'v', b'\n'], Path::new("b.obj")).is_err());
+}
+
+#[test]
+fn unsupported_format_and_missing_file() {
+    let e = load_mesh("scene.ply").unwrap_err();
+    assert!(matches!(e, SceneError::UnsupportedFormat { .. }));
+    assert!(e.to_string().contains("scene.ply"));
+    let e = load_mesh("/definitely/not/here.obj").unwrap_err();
+    assert!(matches!(e, SceneError::Io { .. }));
+    assert!(e.to_string().contains("here.obj"));
+}

@@ -1,0 +1,135 @@
+//! The tracer abstraction, and its implementation on the binary BVH.
+
+use sahara_bvh::Bvh;
+use sahara_geom::{Ray, Triangle};
+use sahara_traverse::{scalar, Hit, NoStats, WorkCounters};
+
+/// Something that answers closest-hit and any-hit queries for single rays: one implementation
+/// per BVH layout (binary, 4-wide, 8-wide, …).
+///
+/// Every function of this crate that traces takes `&T where T: Tracer + ?Sized`, so a new
+/// layout plugs into ray generation, batch tracing, counting, images and timing by
+/// implementing this trait (also usable as `&dyn Tracer`).
+///
+/// Contract, shared by every implementation so that results compare ray by ray:
+///
+/// * invalid rays ([`Ray::is_valid`]) miss;
+/// * the closest hit in `[ray.tmin, ray.tmax]` is returned, and among hits at exactly the same
+///   `t` the lowest primitive index wins ([`Hit::is_improved_by`]);
+/// * `prim` indexes the scene's triangle slice as given by the caller (a layout that
+///   reorders triangles internally maps back);
+/// * the `_fast` methods return exactly what the counting methods return.
+pub trait Tracer: Sync {
+    /// A short name of the layout for reports (`"bvh2"`, `"bvh4"`, …).
+    fn name(&self) -> &str {
+        "tracer"
+    }
+
+    /// The closest hit, adding the work done to `stats` (counters are accumulated, not
+    /// reset).
+    fn closest_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> Hit;
+
+    /// True when anything is hit in `[tmin, tmax]`, adding the work done to `stats`.
+    fn any_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> bool;
+
+    /// The closest hit without counting: the path that is timed. The default calls
+    /// [`Tracer::closest_hit`] with scratch counters; implementations override it with a
+    /// kernel compiled without counters.
+    fn closest_hit_fast(&self, ray: &Ray) -> Hit {
+        self.closest_hit(ray, &mut WorkCounters::default())
+    }
+
+    /// Any hit without counting (see [`Tracer::closest_hit_fast`]).
+    fn any_hit_fast(&self, ray: &Ray) -> bool {
+        self.any_hit(ray, &mut WorkCounters::default())
+    }
+}
+
+/// The binary BVH traced by the scalar reference kernels of `sahara_traverse::scalar`
+/// (compiled with `NoStats` for the fast path, `WorkCounters` for the counting path).
+#[derive(Clone, Copy, Debug)]
+pub struct Bvh2Tracer<'a> {
+    /// The tree.
+    pub bvh: &'a Bvh,
+    /// The triangles it was built over (indexed by the tree's primitive references).
+    pub tris: &'a [Triangle],
+}
+
+impl<'a> Bvh2Tracer<'a> {
+    /// A tracer over `bvh` built on `tris`.
+    pub fn new(bvh: &'a Bvh, tris: &'a [Triangle]) -> Self {
+        Self { bvh, tris }
+    }
+}
+
+impl Tracer for Bvh2Tracer<'_> {
+    fn name(&self) -> &str {
+        "bvh2"
+    }
+
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> Hit {
+        scalar::closest_hit(self.bvh, self.tris, ray, stats)
+    }
+
+    #[inline]
+    fn any_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> bool {
+        scalar::any_hit(self.bvh, self.tris, ray, stats)
+    }
+
+    #[inline]
+    fn closest_hit_fast(&self, ray: &Ray) -> Hit {
+        scalar::closest_hit(self.bvh, self.tris, ray, &mut NoStats)
+    }
+
+    #[inline]
+    fn any_hit_fast(&self, ray: &Ray) -> bool {
+        scalar::any_hit(self.bvh, self.tris, ray, &mut NoStats)
+    }
+}
+
+/// Brute force over a triangle slice (every triangle tested, `sahara_traverse::brute`): a
+/// reference tracer for tests and tiny scenes. Its counters report one leaf and every
+/// triangle per valid ray (an upper bound for any-hit, which stops at the first hit).
+#[derive(Clone, Copy, Debug)]
+pub struct BruteTracer<'a> {
+    /// The triangles.
+    pub tris: &'a [Triangle],
+}
+
+impl<'a> BruteTracer<'a> {
+    /// A brute-force tracer over `tris`.
+    pub fn new(tris: &'a [Triangle]) -> Self {
+        Self { tris }
+    }
+}
+
+impl Tracer for BruteTracer<'_> {
+    fn name(&self) -> &str {
+        "brute"
+    }
+
+    fn closest_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> Hit {
+        if ray.is_valid() {
+            stats.leaves += 1;
+            stats.triangles += self.tris.len() as u64;
+        }
+        self.closest_hit_fast(ray)
+    }
+
+    fn any_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> bool {
+        if ray.is_valid() {
+            stats.leaves += 1;
+            stats.triangles += self.tris.len() as u64;
+        }
+        self.any_hit_fast(ray)
+    }
+
+    fn closest_hit_fast(&self, ray: &Ray) -> Hit {
+        sahara_traverse::brute::closest_hit(self.tris, ray)
+    }
+
+    fn any_hit_fast(&self, ray: &Ray) -> bool {
+        sahara_traverse::brute::any_hit(self.tris, ray)
+    }
+}

@@ -1,0 +1,479 @@
+//! The traversal loops shared by every backend, generic over a [`Kernel`] (the box and
+//! triangle tests) and a [`Stack`].
+
+use super::{decode_leaf, TriPacket, WideBvh, WideNode, LEAF_BIT, NO_ROOT};
+use crate::{Hit, TraversalStats};
+use sahara_geom::intersect::{intersect_triangle, WatertightRay, ROBUST_FAR_SCALE};
+use sahara_geom::Ray;
+use std::mem::MaybeUninit;
+
+/// Per-ray constants shared by every backend.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayData {
+    pub(crate) origin: [f32; 3],
+    pub(crate) inv: [f32; 3],
+    pub(crate) tmin: f32,
+    pub(crate) tmax: f32,
+    /// Bounds row (of `min_x, max_x, min_y, …`) of the near plane on each axis: the minimum
+    /// when the reciprocal direction is positive (sign bit clear), else the maximum.
+    pub(crate) near_row: [usize; 3],
+    /// Row of the far plane.
+    pub(crate) far_row: [usize; 3],
+    pub(crate) w: WatertightRay,
+}
+
+impl RayData {
+    #[inline(always)]
+    pub(crate) fn new(ray: &Ray) -> Self {
+        let inv = ray.inv_direction.to_array();
+        let mut near_row = [0; 3];
+        let mut far_row = [0; 3];
+        for a in 0..3 {
+            let neg = inv[a].is_sign_negative() as usize;
+            near_row[a] = 2 * a + neg;
+            far_row[a] = 2 * a + 1 - neg;
+        }
+        Self {
+            origin: ray.origin.to_array(),
+            inv,
+            tmin: ray.tmin,
+            tmax: ray.tmax,
+            near_row,
+            far_row,
+            w: ray.watertight(),
+        }
+    }
+
+    /// The robust slab test of one box given as `[min_x, max_x, min_y, max_y, min_z, max_z]`,
+    /// against `[tmin, tfar]`: the scalar definition every SIMD box test reproduces lane by
+    /// lane. Returns the entry distance.
+    #[inline(always)]
+    pub(crate) fn slab(&self, b: [f32; 6], tfar: f32) -> Option<f32> {
+        let mut near = self.tmin;
+        let mut far = tfar;
+        for a in 0..3 {
+            let tn = (b[self.near_row[a]] - self.origin[a]) * self.inv[a];
+            let tf = (b[self.far_row[a]] - self.origin[a]) * self.inv[a] * ROBUST_FAR_SCALE;
+            // `maxps(tn, near)` / `minps(tf, far)`: a NaN slab distance is ignored.
+            near = if tn > near { tn } else { near };
+            far = if tf < far { tf } else { far };
+        }
+        if near <= far {
+            Some(near)
+        } else {
+            None
+        }
+    }
+}
+
+/// Hits of a 4-triangle packet found by a SIMD triangle test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PacketHits {
+    pub(crate) t: [f32; 4],
+    pub(crate) u: [f32; 4],
+    pub(crate) v: [f32; 4],
+}
+
+/// Box and triangle tests of one backend.
+pub(crate) trait Kernel<const W: usize> {
+    /// The ray in the backend's registers.
+    type Ray: Copy;
+
+    /// Prepares the ray.
+    ///
+    /// # Safety
+    /// The backend's CPU features must be present.
+    unsafe fn prepare(r: &RayData) -> Self::Ray;
+
+    /// Tests the `W` child boxes of `node` against `[tmin, tfar]`; returns the mask of boxes
+    /// hit (possibly including unused slots) and writes the entry distances to `dist`.
+    ///
+    /// # Safety
+    /// As for [`Kernel::prepare`].
+    unsafe fn intersect_node(
+        node: &WideNode<W>,
+        r: &Self::Ray,
+        rd: &RayData,
+        tfar: f32,
+        dist: &mut [f32; W],
+    ) -> u32;
+
+    /// Tests a packet against `[tmin, tmax]` of the ray, returning `(hit mask, fallback mask)`:
+    /// lanes of the hit mask are hits with exactly the values of
+    /// [`intersect_triangle`] (written to `out` when the mask is not zero, with `t <= tfar`
+    /// also required); lanes of the fallback mask must be tested with [`intersect_triangle`].
+    ///
+    /// # Safety
+    /// As for [`Kernel::prepare`].
+    unsafe fn intersect_packet(
+        p: &TriPacket,
+        r: &Self::Ray,
+        rd: &RayData,
+        tfar: f32,
+        out: &mut PacketHits,
+    ) -> (u32, u32);
+
+    /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`.
+    ///
+    /// # Safety
+    /// As for [`Kernel::prepare`].
+    unsafe fn occlude_packet(p: &TriPacket, r: &Self::Ray, rd: &RayData) -> (u32, u32);
+}
+
+/// A traversal stack entry: a child reference and its entry distance.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Entry {
+    pub(crate) child: u32,
+    pub(crate) dist: f32,
+}
+
+/// The traversal stack.
+pub(crate) trait Stack {
+    fn push(&mut self, e: Entry);
+    fn pop(&mut self) -> Option<Entry>;
+    /// The last `n` entries, mutable (for sorting them).
+    fn top_mut(&mut self, n: usize) -> &mut [Entry];
+}
+
+/// Capacity of [`FixedStack`].
+pub(crate) const FIXED_STACK: usize = 256;
+
+/// An uninitialised array on the call stack, used only for trees whose stack bound
+/// ([`WideBvh::max_stack`]) fits, so pushes need no capacity check.
+pub(crate) struct FixedStack {
+    data: [MaybeUninit<Entry>; FIXED_STACK],
+    len: usize,
+}
+
+impl FixedStack {
+    #[inline(always)]
+    pub(crate) fn new() -> Self {
+        Self {
+            data: [MaybeUninit::uninit(); FIXED_STACK],
+            len: 0,
+        }
+    }
+}
+
+impl Stack for FixedStack {
+    #[inline(always)]
+    fn push(&mut self, e: Entry) {
+        // The tree's stack bound was checked against the capacity before choosing this stack;
+        // the check stays as a (predictable, never taken) guard for memory safety.
+        if self.len >= FIXED_STACK {
+            overflow();
+        }
+        // SAFETY: `len < FIXED_STACK`.
+        unsafe { self.data.get_unchecked_mut(self.len).write(e) };
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: entries below `len` were written by `push`.
+        Some(unsafe { self.data.get_unchecked(self.len).assume_init() })
+    }
+
+    #[inline(always)]
+    fn top_mut(&mut self, n: usize) -> &mut [Entry] {
+        debug_assert!(n <= self.len);
+        let start = self.len - n;
+        // SAFETY: entries below `len` are initialised, and `start..len` is in bounds.
+        unsafe {
+            std::slice::from_raw_parts_mut(self.data.as_mut_ptr().add(start).cast::<Entry>(), n)
+        }
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn overflow() -> ! {
+    panic!("wide BVH traversal stack overflow (stack bound computed wrongly)")
+}
+
+/// A heap stack for trees too deep for [`FixedStack`].
+pub(crate) struct VecStack(pub(crate) Vec<Entry>);
+
+impl Stack for VecStack {
+    #[inline]
+    fn push(&mut self, e: Entry) {
+        self.0.push(e);
+    }
+    #[inline]
+    fn pop(&mut self) -> Option<Entry> {
+        self.0.pop()
+    }
+    #[inline]
+    fn top_mut(&mut self, n: usize) -> &mut [Entry] {
+        let len = self.0.len();
+        &mut self.0[len - n..]
+    }
+}
+
+/// The lowest set lane of a non-zero mask of `W` lanes (`W` a power of two), masked so that
+/// indexing `[_; W]` arrays needs no bounds check.
+#[inline(always)]
+fn lane<const W: usize>(mask: u32) -> usize {
+    mask.trailing_zeros() as usize & (W - 1)
+}
+
+/// Sorts `e` by decreasing distance (insertion sort; at most `W` entries), so that the
+/// nearest child ends on top of the stack.
+#[inline(always)]
+fn sort_far_to_near(e: &mut [Entry]) {
+    for i in 1..e.len() {
+        let x = e[i];
+        let mut j = i;
+        while j > 0 && e[j - 1].dist < x.dist {
+            e[j] = e[j - 1];
+            j -= 1;
+        }
+        e[j] = x;
+    }
+}
+
+/// Tests the packets of a leaf, updating `best` and `tfar`.
+#[inline(always)]
+unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
+    bvh: &WideBvh<W>,
+    child: u32,
+    kr: &K::Ray,
+    rd: &RayData,
+    best: &mut Hit,
+    tfar: &mut f32,
+    stats: &mut S,
+) {
+    stats.leaf();
+    let (first, n) = decode_leaf(child);
+    debug_assert!(first + n <= bvh.packets.len());
+    // SAFETY: leaf references are built in bounds of `packets`.
+    let packets = unsafe { bvh.packets.get_unchecked(first..first + n) };
+    let mut out = PacketHits {
+        t: [0.0; 4],
+        u: [0.0; 4],
+        v: [0.0; 4],
+    };
+    for p in packets {
+        stats.triangles(p.len());
+        // SAFETY: forwarded from the caller.
+        let (mut hits, mut fallback) = unsafe { K::intersect_packet(p, kr, rd, *tfar, &mut out) };
+        while hits != 0 {
+            let l = hits.trailing_zeros() as usize & 3;
+            hits &= hits - 1;
+            let prim = p.prims[l];
+            if best.is_improved_by(out.t[l], prim) {
+                *best = Hit {
+                    t: out.t[l],
+                    prim,
+                    u: out.u[l],
+                    v: out.v[l],
+                };
+            }
+        }
+        while fallback != 0 {
+            let l = fallback.trailing_zeros() as usize & 3;
+            fallback &= fallback - 1;
+            scalar_lane(p, l, rd, best);
+        }
+        *tfar = best.t.min(rd.tmax);
+    }
+}
+
+/// The exact scalar test of one lane (for lanes with an edge function exactly zero).
+#[cold]
+#[inline(never)]
+fn scalar_lane(p: &TriPacket, l: usize, rd: &RayData, best: &mut Hit) {
+    let prim = p.prims[l];
+    if let Some(h) = intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax) {
+        if best.is_improved_by(h.t, prim) {
+            *best = Hit {
+                t: h.t,
+                prim,
+                u: h.u,
+                v: h.v,
+            };
+        }
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn scalar_lane_occluded(p: &TriPacket, l: usize, rd: &RayData) -> bool {
+    intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax).is_some()
+}
+
+/// Closest-hit traversal.
+///
+/// # Safety
+/// The kernel's CPU features must be present; `St` must hold `bvh.max_stack` entries.
+#[inline(always)]
+pub(crate) unsafe fn closest_hit<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack>(
+    bvh: &WideBvh<W>,
+    ray: &Ray,
+    stats: &mut S,
+    stack: &mut St,
+) -> Hit {
+    let mut best = Hit::MISS;
+    if bvh.root == NO_ROOT || !ray.is_valid() {
+        return best;
+    }
+    let rd = RayData::new(ray);
+    let rb = &bvh.root_bounds;
+    let root_box = [
+        rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z,
+    ];
+    if rd.slab(root_box, rd.tmax).is_none() {
+        return best;
+    }
+    // SAFETY: forwarded from the caller.
+    let kr = unsafe { K::prepare(&rd) };
+    let mut tfar = rd.tmax;
+    let mut cur = bvh.root;
+    let mut dist = [0.0f32; W];
+    loop {
+        if cur & LEAF_BIT != 0 {
+            // SAFETY: forwarded.
+            unsafe { leaf_closest::<K, W, S>(bvh, cur, &kr, &rd, &mut best, &mut tfar, stats) };
+        } else {
+            stats.inner();
+            debug_assert!((cur as usize) < bvh.nodes.len());
+            // SAFETY: inner references are built in bounds of `nodes`.
+            let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
+            // SAFETY: forwarded.
+            let mut mask = unsafe { K::intersect_node(node, &kr, &rd, tfar, &mut dist) } & node.valid;
+            if mask != 0 {
+                let i0 = lane::<W>(mask);
+                mask &= mask - 1;
+                if mask == 0 {
+                    cur = node.children[i0];
+                    continue;
+                }
+                let i1 = lane::<W>(mask);
+                mask &= mask - 1;
+                let e0 = Entry {
+                    child: node.children[i0],
+                    dist: dist[i0],
+                };
+                let e1 = Entry {
+                    child: node.children[i1],
+                    dist: dist[i1],
+                };
+                if mask == 0 {
+                    let (near, far) = if e1.dist < e0.dist { (e1, e0) } else { (e0, e1) };
+                    stack.push(far);
+                    cur = near.child;
+                    continue;
+                }
+                stack.push(e0);
+                stack.push(e1);
+                let mut n = 2;
+                while mask != 0 {
+                    let i = lane::<W>(mask);
+                    mask &= mask - 1;
+                    stack.push(Entry {
+                        child: node.children[i],
+                        dist: dist[i],
+                    });
+                    n += 1;
+                }
+                sort_far_to_near(stack.top_mut(n));
+                cur = stack.pop().map_or(NO_ROOT, |e| e.child);
+                continue;
+            }
+        }
+        // Pop the next child that may still hold a nearer hit.
+        loop {
+            match stack.pop() {
+                None => return best,
+                Some(e) => {
+                    if e.dist <= tfar {
+                        cur = e.child;
+                        break;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Any-hit traversal.
+///
+/// # Safety
+/// As for [`closest_hit`].
+#[inline(always)]
+pub(crate) unsafe fn any_hit<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack>(
+    bvh: &WideBvh<W>,
+    ray: &Ray,
+    stats: &mut S,
+    stack: &mut St,
+) -> bool {
+    if bvh.root == NO_ROOT || !ray.is_valid() {
+        return false;
+    }
+    let rd = RayData::new(ray);
+    let rb = &bvh.root_bounds;
+    let root_box = [
+        rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z,
+    ];
+    if rd.slab(root_box, rd.tmax).is_none() {
+        return false;
+    }
+    // SAFETY: forwarded from the caller.
+    let kr = unsafe { K::prepare(&rd) };
+    let mut dist = [0.0f32; W];
+    let mut cur = bvh.root;
+    loop {
+        if cur & LEAF_BIT != 0 {
+            stats.leaf();
+            let (first, n) = decode_leaf(cur);
+            debug_assert!(first + n <= bvh.packets.len());
+            // SAFETY: leaf references are built in bounds of `packets`.
+            let packets = unsafe { bvh.packets.get_unchecked(first..first + n) };
+            for p in packets {
+                stats.triangles(p.len());
+                // SAFETY: forwarded.
+                let (hits, mut fallback) = unsafe { K::occlude_packet(p, &kr, &rd) };
+                if hits != 0 {
+                    return true;
+                }
+                while fallback != 0 {
+                    let l = fallback.trailing_zeros() as usize & 3;
+                    fallback &= fallback - 1;
+                    if scalar_lane_occluded(p, l, &rd) {
+                        return true;
+                    }
+                }
+            }
+        } else {
+            stats.inner();
+            debug_assert!((cur as usize) < bvh.nodes.len());
+            // SAFETY: inner references are built in bounds of `nodes`.
+            let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
+            // SAFETY: forwarded.
+            let mut mask =
+                unsafe { K::intersect_node(node, &kr, &rd, rd.tmax, &mut dist) } & node.valid;
+            if mask != 0 {
+                let i = lane::<W>(mask);
+                mask &= mask - 1;
+                while mask != 0 {
+                    let j = lane::<W>(mask);
+                    mask &= mask - 1;
+                    stack.push(Entry {
+                        child: node.children[j],
+                        dist: 0.0,
+                    });
+                }
+                cur = node.children[i];
+                continue;
+            }
+        }
+        match stack.pop() {
+            None => return false,
+            Some(e) => cur = e.child,
+        }
+    }
+}

@@ -1,0 +1,417 @@
+//! Wide BVHs (4 and 8 children per node) and their SIMD traversal kernels.
+//!
+//! [`WideBvh::from_bvh`] collapses a binary [`Bvh`] into a tree whose nodes hold the bounds of
+//! up to `W` children as structure-of-arrays (`min_x[W]`, `max_x[W]`, … so that one SIMD pass
+//! tests all children), and whose leaves hold triangles in packets of 4 (vertices stored SoA,
+//! padded with NaN lanes that never hit). [`Bvh4`] and [`Bvh8`] are the two supported widths.
+//!
+//! **Collapse.** The standard greedy, SAH-aware collapse (as in Embree's and tinybvh's wide
+//! BVHs): starting from the two children of a binary node, repeatedly open (replace by its two
+//! children) the inner child with the largest surface area, until the wide node has `W`
+//! children or only leaves remain. Opening the largest box first keeps the SAH cost low: large
+//! boxes are the ones rays are most likely to enter. Binary subtrees with at most 4 references
+//! become one leaf packet; a binary leaf with more than 32 references becomes a small subtree
+//! of leaves (sorted along the leaf's longest axis). Every triangle keeps its original index,
+//! and spatial-split trees (a triangle in several leaves) are supported.
+//!
+//! **Kernels.** Closest hit and any hit, stack-based, children visited near to far (the hit
+//! children are sorted by entry distance). Three backends share the traversal code
+//! ([`Backend`]): AVX2 (8-wide `f32` box tests with 256-bit registers), SSE2 (4-wide; an 8-wide
+//! node is tested in two halves) and a portable scalar implementation of the same layout, used
+//! where no SIMD path exists. The best one available is chosen once, at run time, with
+//! `is_x86_feature_detected!` ([`simd_backend`]).
+//!
+//! **Exactness.** Every backend returns bit-identical results:
+//!
+//! * the box test is the robust slab test of [`intersect_aabb`] (far distances scaled by
+//!   [`ROBUST_FAR_SCALE`], NaN slab distances ignored), evaluated with the same operations in
+//!   the same order; the near and far planes are picked by the sign of the reciprocal direction,
+//!   which gives the same distances as `min`/`max` of the two slab distances but keeps a NaN
+//!   slab distance (origin on a slab plane, zero direction component) out of both the near and
+//!   the far distance, so such rays are never culled;
+//! * the triangle test evaluates the watertight test of [`intersect_triangle`] lane by lane
+//!   with the same `f32` operations in the same order (no FMA contraction), and hands any lane
+//!   where an edge function is exactly zero (the case where the reference falls back to `f64`)
+//!   to [`intersect_triangle`] itself. So `t`, `u`, `v` and the primitive are those of the
+//!   reference kernel [`crate::scalar::closest_hit`];
+//! * candidate triangles are accepted against the ray's own `[tmin, tmax]` and then compared
+//!   with [`Hit::is_improved_by`], so the result does not depend on the order in which leaves
+//!   are visited (equal distances: lowest primitive index).
+//!
+//! Invalid rays ([`Ray::is_valid`]) miss.
+//!
+//! [`intersect_aabb`]: sahara_geom::intersect::intersect_aabb
+//! [`intersect_triangle`]: sahara_geom::intersect::intersect_triangle
+//! [`ROBUST_FAR_SCALE`]: sahara_geom::intersect::ROBUST_FAR_SCALE
+//!
+//! ```
+//! use sahara_bvh::{Bvh, Node};
+//! use sahara_geom::{Ray, Triangle, Vec3A};
+//! use sahara_traverse::{scalar, Backend, Bvh8, NoStats};
+//!
+//! let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))];
+//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let wide = Bvh8::from_bvh(&bvh, &tris);
+//! let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+//! let hit = wide.closest_hit(&ray, &mut NoStats);
+//! assert_eq!(hit, scalar::closest_hit(&bvh, &tris, &ray, &mut NoStats));
+//! assert_eq!(hit, wide.closest_hit_with(Backend::Portable, &ray, &mut NoStats));
+//! assert!(wide.any_hit(&ray, &mut NoStats));
+//! ```
+
+mod collapse;
+mod kernel;
+mod portable;
+#[cfg(target_arch = "x86_64")]
+mod x86;
+
+use crate::{Hit, TraversalStats};
+use sahara_bvh::Bvh;
+use sahara_geom::{Aabb, Ray, Triangle};
+use std::fmt;
+use std::str::FromStr;
+
+/// A 4-wide BVH (SSE2 kernels on x86-64).
+pub type Bvh4 = WideBvh<4>;
+/// An 8-wide BVH (AVX2 kernels when the CPU has AVX2 and FMA).
+pub type Bvh8 = WideBvh<8>;
+
+/// Marks a leaf in a child reference: `1 << 31 | (packets - 1) << 28 | first packet`.
+pub(crate) const LEAF_BIT: u32 = 1 << 31;
+const LEAF_COUNT_SHIFT: u32 = 28;
+const LEAF_FIRST_MASK: u32 = (1 << LEAF_COUNT_SHIFT) - 1;
+/// Most packets (of 4 triangles) in one leaf.
+pub(crate) const MAX_LEAF_PACKETS: usize = 8;
+
+#[inline(always)]
+pub(crate) fn encode_leaf(first: usize, packets: usize) -> u32 {
+    debug_assert!((1..=MAX_LEAF_PACKETS).contains(&packets));
+    debug_assert!(first <= LEAF_FIRST_MASK as usize);
+    LEAF_BIT | ((packets as u32 - 1) << LEAF_COUNT_SHIFT) | first as u32
+}
+
+/// `(first packet, number of packets)` of a leaf reference.
+#[inline(always)]
+pub(crate) fn decode_leaf(child: u32) -> (usize, usize) {
+    (
+        (child & LEAF_FIRST_MASK) as usize,
+        (((child >> LEAF_COUNT_SHIFT) & 7) + 1) as usize,
+    )
+}
+
+/// An inner node of a [`WideBvh`]: the bounds of up to `W` children as structure of arrays
+/// (rows `min_x, max_x, min_y, max_y, min_z, max_z`, `W` lanes each) and the children.
+///
+/// A child is either an inner node (its index) or a leaf (`1 << 31`, the number of packets
+/// minus one in bits 28–30, the first packet in bits 0–27). Slots whose bit is clear in
+/// `valid` are unused. 64-byte aligned: 128 bytes for `W = 4`, 256 bytes for `W = 8`.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideNode<const W: usize> {
+    pub(crate) bounds: [[f32; W]; 6],
+    pub(crate) children: [u32; W],
+    pub(crate) valid: u32,
+}
+
+impl<const W: usize> WideNode<W> {
+    pub(crate) const EMPTY: Self = Self {
+        bounds: [[f32::NAN; W]; 6],
+        children: [u32::MAX; W],
+        valid: 0,
+    };
+
+    /// Number of used child slots.
+    #[inline]
+    pub fn child_count(&self) -> usize {
+        self.valid.count_ones() as usize
+    }
+
+    /// Bounds of child slot `i` (meaningless for an unused slot).
+    pub fn child_bounds(&self, i: usize) -> Aabb {
+        let b = &self.bounds;
+        Aabb::new(
+            sahara_geom::Vec3A::new(b[0][i], b[2][i], b[4][i]),
+            sahara_geom::Vec3A::new(b[1][i], b[3][i], b[5][i]),
+        )
+    }
+}
+
+/// Four triangles prepared for a SIMD watertight test: vertices as `v[vertex][axis][lane]`
+/// and the original primitive index of each lane (`u32::MAX` and NaN vertices in padding
+/// lanes, which never hit).
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TriPacket {
+    pub(crate) v: [[[f32; 4]; 3]; 3],
+    pub(crate) prims: [u32; 4],
+}
+
+impl TriPacket {
+    /// The triangle of lane `lane`, exactly as given to the builder.
+    #[inline]
+    pub(crate) fn triangle(&self, lane: usize) -> Triangle {
+        let p = |k: usize| {
+            sahara_geom::Vec3A::new(self.v[k][0][lane], self.v[k][1][lane], self.v[k][2][lane])
+        };
+        Triangle::new(p(0), p(1), p(2))
+    }
+
+    /// Number of real (non-padding) triangles.
+    #[inline(always)]
+    pub(crate) fn len(&self) -> u32 {
+        self.prims.iter().filter(|&&p| p != u32::MAX).count() as u32
+    }
+}
+
+/// A BVH with `W` children per inner node (`W` = 4 or 8) and leaves of SIMD triangle packets.
+///
+/// Built from a binary [`Bvh`] with [`WideBvh::from_bvh`]; traversed with
+/// [`WideBvh::closest_hit`] and [`WideBvh::any_hit`], which give exactly the results of the
+/// scalar reference kernels (see the [module documentation](self)).
+#[derive(Clone, Debug)]
+pub struct WideBvh<const W: usize> {
+    pub(crate) nodes: Vec<WideNode<W>>,
+    pub(crate) packets: Vec<TriPacket>,
+    /// The root: a node index, a leaf reference, or `u32::MAX` for an empty tree.
+    pub(crate) root: u32,
+    pub(crate) root_bounds: Aabb,
+    /// Upper bound of the traversal stack depth.
+    pub(crate) max_stack: usize,
+    pub(crate) backend: Backend,
+}
+
+/// Empty-tree root marker.
+pub(crate) const NO_ROOT: u32 = u32::MAX;
+
+impl<const W: usize> WideBvh<W> {
+    /// Collapses a binary BVH built over `tris` into a `W`-wide one (see the
+    /// [module documentation](self) for the strategy). The triangles are copied into the leaf
+    /// packets, so the wide tree does not borrow them; hits report indices into `tris`.
+    ///
+    /// # Panics
+    ///
+    /// If `W` is not 4 or 8, or if a leaf of `bvh` references a triangle outside `tris`.
+    pub fn from_bvh(bvh: &Bvh, tris: &[Triangle]) -> Self {
+        collapse::collapse(bvh, tris)
+    }
+
+    /// Closest hit with the fastest backend available for this width (see
+    /// [`WideBvh::backend`]). Invalid rays miss.
+    #[inline]
+    pub fn closest_hit<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> Hit {
+        self.closest_hit_with(self.backend, ray, stats)
+    }
+
+    /// Any hit (occlusion): true when a triangle is hit in `[tmin, tmax]`, with the fastest
+    /// backend available. Invalid rays miss.
+    #[inline]
+    pub fn any_hit<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        self.any_hit_with(self.backend, ray, stats)
+    }
+
+    /// Closest hit with a chosen backend; a backend this CPU lacks falls back to
+    /// [`Backend::Portable`]. All backends give bit-identical results.
+    #[inline]
+    pub fn closest_hit_with<S: TraversalStats>(
+        &self,
+        backend: Backend,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Hit {
+        match backend {
+            #[cfg(target_arch = "x86_64")]
+            Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
+                // SAFETY: AVX2 and FMA are present (checked above or when `self.backend` was
+                // chosen).
+                unsafe { x86::closest_hit_avx2(self, ray, stats) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Backend::Sse2 => x86::closest_hit_sse2(self, ray, stats),
+            _ => portable::closest_hit(self, ray, stats),
+        }
+    }
+
+    /// Any hit with a chosen backend; a backend this CPU lacks falls back to
+    /// [`Backend::Portable`].
+    #[inline]
+    pub fn any_hit_with<S: TraversalStats>(&self, backend: Backend, ray: &Ray, stats: &mut S) -> bool {
+        match backend {
+            #[cfg(target_arch = "x86_64")]
+            Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
+                // SAFETY: as in `closest_hit_with`.
+                unsafe { x86::any_hit_avx2(self, ray, stats) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Backend::Sse2 => x86::any_hit_sse2(self, ray, stats),
+            _ => portable::any_hit(self, ray, stats),
+        }
+    }
+
+    /// The backend [`WideBvh::closest_hit`] and [`WideBvh::any_hit`] use: [`Backend::Avx2`]
+    /// when the CPU has AVX2 and FMA, else [`Backend::Sse2`] on x86-64, else
+    /// [`Backend::Portable`].
+    #[inline]
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// Number of inner nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Number of leaf packets (of up to 4 triangles each).
+    pub fn packet_count(&self) -> usize {
+        self.packets.len()
+    }
+
+    /// Number of triangle references stored in the leaves (more than the number of triangles
+    /// when the binary tree has spatial splits).
+    pub fn reference_count(&self) -> usize {
+        self.packets.iter().map(|p| p.len() as usize).sum()
+    }
+
+    /// The inner nodes (index 0 is the root unless the whole tree is one leaf).
+    pub fn nodes(&self) -> &[WideNode<W>] {
+        &self.nodes
+    }
+
+    /// Bytes used by the nodes and the packets.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<WideNode<W>>()
+            + self.packets.len() * std::mem::size_of::<TriPacket>()
+    }
+
+    /// Bounds of the whole tree (empty for an empty tree).
+    pub fn bounds(&self) -> Aabb {
+        self.root_bounds
+    }
+}
+
+/// A traversal implementation of the wide layouts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Backend {
+    /// Scalar code over the same layout; available everywhere.
+    Portable,
+    /// 128-bit SSE2 (every x86-64 CPU).
+    Sse2,
+    /// 256-bit AVX2 with FMA enabled (x86-64 CPUs that have both).
+    Avx2,
+}
+
+impl Backend {
+    /// All backends, slowest first.
+    pub const ALL: [Backend; 3] = [Backend::Portable, Backend::Sse2, Backend::Avx2];
+
+    /// True when this CPU can run the backend.
+    pub fn is_available(self) -> bool {
+        match self {
+            Backend::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Backend::Sse2 => true,
+            #[cfg(target_arch = "x86_64")]
+            Backend::Avx2 => {
+                std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The fastest available backend.
+    pub fn best() -> Backend {
+        if Backend::Avx2.is_available() {
+            Backend::Avx2
+        } else if Backend::Sse2.is_available() {
+            Backend::Sse2
+        } else {
+            Backend::Portable
+        }
+    }
+
+    /// `"portable"`, `"sse2"` or `"avx2"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Portable => "portable",
+            Backend::Sse2 => "sse2",
+            Backend::Avx2 => "avx2",
+        }
+    }
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The SIMD path the wide kernels use on this machine: `"avx2"`, `"sse2"` or `"portable"`
+/// (the name of [`Backend::best`]).
+pub fn simd_backend() -> &'static str {
+    Backend::best().name()
+}
+
+/// A tree layout a tracer can run: the binary tree with the scalar kernels, or a wide tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Layout {
+    /// The binary [`Bvh`] with the scalar reference kernels ([`crate::scalar`]).
+    #[default]
+    Bvh2,
+    /// [`Bvh4`].
+    Bvh4,
+    /// [`Bvh8`].
+    Bvh8,
+}
+
+impl Layout {
+    /// Every layout.
+    pub const ALL: [Layout; 3] = [Layout::Bvh2, Layout::Bvh4, Layout::Bvh8];
+
+    /// Children per inner node: 2, 4 or 8.
+    pub fn width(self) -> usize {
+        match self {
+            Layout::Bvh2 => 2,
+            Layout::Bvh4 => 4,
+            Layout::Bvh8 => 8,
+        }
+    }
+
+    /// `"bvh2"`, `"bvh4"` or `"bvh8"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Layout::Bvh2 => "bvh2",
+            Layout::Bvh4 => "bvh4",
+            Layout::Bvh8 => "bvh8",
+        }
+    }
+}
+
+impl fmt::Display for Layout {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A layout name that is not `bvh2`, `bvh4` or `bvh8`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ParseLayoutError(pub String);
+
+impl fmt::Display for ParseLayoutError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "unknown layout {:?} (expected bvh2, bvh4 or bvh8)", self.0)
+    }
+}
+
+impl std::error::Error for ParseLayoutError {}
+
+impl FromStr for Layout {
+    type Err = ParseLayoutError;
+
+    /// Parses `bvh2`, `bvh4` or `bvh8` (ASCII case-insensitive).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Layout::ALL
+            .into_iter()
+            .find(|l| s.eq_ignore_ascii_case(l.name()))
+            .ok_or_else(|| ParseLayoutError(s.to_string()))
+    }
+}

@@ -1,0 +1,107 @@
+//! The portable backend: the wide layouts traversed with scalar code (every target).
+
+use super::kernel::{self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK};
+use super::{TriPacket, WideBvh, WideNode};
+use crate::{Hit, TraversalStats};
+use sahara_geom::intersect::intersect_triangle;
+use sahara_geom::Ray;
+
+/// Scalar box and triangle tests, lane by lane.
+pub(crate) struct Portable;
+
+impl<const W: usize> Kernel<W> for Portable {
+    type Ray = ();
+
+    #[inline(always)]
+    unsafe fn prepare(_: &RayData) {}
+
+    #[inline(always)]
+    unsafe fn intersect_node(
+        node: &WideNode<W>,
+        _: &(),
+        rd: &RayData,
+        tfar: f32,
+        dist: &mut [f32; W],
+    ) -> u32 {
+        let mut mask = 0;
+        for i in 0..W {
+            let b = &node.bounds;
+            let bx = [b[0][i], b[1][i], b[2][i], b[3][i], b[4][i], b[5][i]];
+            if let Some(d) = rd.slab(bx, tfar) {
+                dist[i] = d;
+                mask |= 1 << i;
+            }
+        }
+        mask
+    }
+
+    #[inline(always)]
+    unsafe fn intersect_packet(
+        p: &TriPacket,
+        _: &(),
+        rd: &RayData,
+        tfar: f32,
+        out: &mut PacketHits,
+    ) -> (u32, u32) {
+        let mut mask = 0;
+        for l in 0..4 {
+            if p.prims[l] == u32::MAX {
+                continue;
+            }
+            if let Some(h) = intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax) {
+                if h.t <= tfar {
+                    out.t[l] = h.t;
+                    out.u[l] = h.u;
+                    out.v[l] = h.v;
+                    mask |= 1 << l;
+                }
+            }
+        }
+        (mask, 0)
+    }
+
+    #[inline(always)]
+    unsafe fn occlude_packet(p: &TriPacket, _: &(), rd: &RayData) -> (u32, u32) {
+        let mut mask = 0;
+        for l in 0..4 {
+            if p.prims[l] != u32::MAX
+                && intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax).is_some()
+            {
+                mask |= 1 << l;
+            }
+        }
+        (mask, 0)
+    }
+}
+
+pub(crate) fn closest_hit<const W: usize, S: TraversalStats>(
+    bvh: &WideBvh<W>,
+    ray: &Ray,
+    stats: &mut S,
+) -> Hit {
+    // SAFETY: the portable kernel needs no CPU feature; the stack holds `max_stack` entries.
+    unsafe {
+        if bvh.max_stack <= FIXED_STACK {
+            kernel::closest_hit::<Portable, W, S, _>(bvh, ray, stats, &mut FixedStack::new())
+        } else {
+            let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
+            kernel::closest_hit::<Portable, W, S, _>(bvh, ray, stats, &mut st)
+        }
+    }
+}
+
+pub(crate) fn any_hit<const W: usize, S: TraversalStats>(
+    bvh: &WideBvh<W>,
+    ray: &Ray,
+    stats: &mut S,
+) -> bool {
+    // SAFETY: as in `closest_hit`.
+    unsafe {
+        if bvh.max_stack <= FIXED_STACK {
+            kernel::any_hit::<Portable, W, S, _>(bvh, ray, stats, &mut FixedStack::new())
+        } else {
+            let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
+            kernel::any_hit::<Portable, W, S, _>(bvh, ray, stats, &mut st)
+        }
+    }
+}

@@ -1,0 +1,539 @@
+//! `cargo xtask eval`: the paper's evaluation matrix (scenes × builders × ray types ×
+//! layouts), written as a dated report folder under `target/eval/`.
+//!
+//! For each scene every builder builds its tree (timed, with SAH and EPO); the ray sets are
+//! generated once per scene (they do not depend on the tree: hits are deterministic) and each
+//! tree is traced with each layout (timed after a warm-up, and counted). Results are reported
+//! relative to the full-sweep SAH tree (and to SBVH for spatial-split builders), in measured
+//! speed and in work per ray; the SAH-EPO predictors are fitted to the measurements.
+
+mod plot;
+mod predict;
+mod report;
+
+use crate::bvh_cmd::{build_and_measure, BuildReport};
+use crate::trace_cmd::{self, TraceReport};
+use crate::util;
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use sahara_trace::{RayKind, RaySet};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args, Clone)]
+pub struct Args {
+    /// Small matrix on the built-in procedural scenes (about two minutes on two cores).
+    #[arg(long)]
+    pub quick: bool,
+    /// Scenes (catalog names or paths; default: see `--quick`).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Builders (default: every registered builder practical at the scene sizes).
+    #[arg(long, value_delimiter = ',')]
+    pub builders: Vec<String>,
+    /// Ray types.
+    #[arg(long, value_delimiter = ',', default_value = "primary,diffuse,ao")]
+    pub rays: Vec<String>,
+    /// Layouts to trace.
+    #[arg(long, value_delimiter = ',')]
+    pub layouts: Vec<String>,
+    /// Output folder (default: target/eval/<date>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Rayon threads for building and tracing (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Image width (default 1024, quick 320).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default 768, quick 240).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Timed trace passes (default 5, quick 3).
+    #[arg(long)]
+    pub passes: Option<usize>,
+    /// Timed builds per builder (default 5, quick 3; builds slower than 5 s run once).
+    #[arg(long)]
+    pub build_runs: Option<usize>,
+    /// Seed of the secondary rays.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Skip the build-time-against-N section.
+    #[arg(long)]
+    pub no_scaling: bool,
+}
+
+/// Settings after defaults are applied.
+#[derive(Clone, Debug, Serialize)]
+pub struct Settings {
+    pub quick: bool,
+    pub scenes: Vec<String>,
+    pub builders: Vec<String>,
+    pub rays: Vec<String>,
+    pub layouts: Vec<String>,
+    pub width: u32,
+    pub height: u32,
+    pub passes: usize,
+    pub build_runs: usize,
+    pub threads: usize,
+    pub seed: u64,
+    pub cost_model: sahara_metrics::CostModel,
+}
+
+/// Facts about the run, written into every report.
+#[derive(Clone, Debug, Serialize)]
+pub struct Meta {
+    pub date: String,
+    pub commit: String,
+    pub cpu: String,
+    pub simd: String,
+    pub settings: Settings,
+    pub seconds: f64,
+}
+
+/// One scene's entry in the results.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneInfo {
+    pub name: String,
+    pub triangles: usize,
+    pub render: Option<String>,
+    pub heat_maps: Vec<(String, String)>,
+}
+
+/// A trace measurement with its comparisons.
+#[derive(Clone, Debug, Serialize)]
+pub struct TraceRow {
+    #[serde(flatten)]
+    pub report: TraceReport,
+    /// Trace cost per ray in SAH units, `c_t · inner + c_i · triangles`.
+    pub work_cost: f64,
+    /// Speed relative to the sweep tree on the same rays and layout (> 1 is faster).
+    pub speed_vs_sweep: Option<f64>,
+    /// Work relative to the sweep tree (sweep work / this work; > 1 is less work).
+    pub work_vs_sweep: Option<f64>,
+    /// Speed relative to SBVH (spatial-split builders).
+    pub speed_vs_sbvh: Option<f64>,
+    /// Work relative to SBVH.
+    pub work_vs_sbvh: Option<f64>,
+}
+
+/// Everything the report is made from (`results.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct Results {
+    pub meta: Meta,
+    pub scenes: Vec<SceneInfo>,
+    pub builds: Vec<BuildReport>,
+    pub traces: Vec<TraceRow>,
+    pub predictors: Vec<predict::PredictorRow>,
+    pub predicted_points: Vec<predict::PredictedPoint>,
+    pub scaling: Vec<crate::scaling::Series>,
+}
+
+const REFERENCE: &str = "sweep";
+const SPATIAL_REFERENCE: &str = "sbvh";
+
+fn default_scenes(quick: bool) -> Vec<String> {
+    if quick {
+        return ["sphere_in_box:20000", "teapot_stadium:20000", "city:20000", "hairball:10000"]
+            .map(String::from)
+            .to_vec();
+    }
+    let catalog = sahara_scene::Catalog::discover();
+    let mut v: Vec<String> = catalog
+        .entries()
+        .iter()
+        .filter(|e| e.path().is_some())
+        // The GLB is the same geometry as its OBJ: trace it once.
+        .filter(|e| !e.name.ends_with("_glb"))
+        .map(|e| e.name.clone())
+        .collect();
+    v.extend(["sphere_in_box", "teapot_stadium", "city", "hairball"].map(String::from));
+    v
+}
+
+fn default_builders(quick: bool) -> Vec<String> {
+    sahara_build::registry::entries()
+        .into_iter()
+        .filter(|e| !e.small_inputs_only)
+        .filter(|e| !quick || !e.name.contains("sbvh") || e.name == "sbvh")
+        .map(|e| e.name.to_string())
+        .collect()
+}
+
+impl Args {
+    fn settings(&self) -> Settings {
+        let q = self.quick;
+        let mut builders = if self.builders.is_empty() {
+            default_builders(q)
+        } else {
+            self.builders.clone()
+        };
+        // The references every comparison needs come first.
+        for r in [SPATIAL_REFERENCE, REFERENCE] {
+            if !builders.iter().any(|b| b == r) {
+                builders.insert(0, r.to_string());
+            }
+        }
+        builders.sort_by_key(|b| (b != REFERENCE, b != SPATIAL_REFERENCE));
+        Settings {
+            quick: q,
+            scenes: if self.scenes.is_empty() {
+                default_scenes(q)
+            } else {
+                self.scenes.clone()
+            },
+            builders,
+            rays: self.rays.clone(),
+            layouts: if self.layouts.is_empty() {
+                trace_cmd::LAYOUTS.iter().map(|s| s.to_string()).collect()
+            } else {
+                self.layouts.clone()
+            },
+            width: self.width.unwrap_or(if q { 320 } else { 1024 }),
+            height: self.height.unwrap_or(if q { 240 } else { 768 }),
+            passes: self.passes.unwrap_or(if q { 3 } else { 5 }),
+            build_runs: self.build_runs.unwrap_or(if q { 3 } else { 5 }),
+            threads: util::thread_count(self.threads),
+            seed: self.seed,
+            cost_model: sahara_metrics::CostModel::default(),
+        }
+    }
+}
+
+fn out_dir(a: &Args) -> PathBuf {
+    if let Some(o) = &a.out {
+        return o.clone();
+    }
+    let root = sahara_scene::workspace_root().unwrap_or_else(|| PathBuf::from("."));
+    let stamp = chrono_like_stamp();
+    root.join("target").join("eval").join(stamp)
+}
+
+/// `YYYY-MM-DDTHH-MM-SS` in UTC, from the system clock (no date crate needed).
+fn chrono_like_stamp() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
+    let days = secs / 86_400;
+    let rem = secs % 86_400;
+    let (y, m, d) = civil_from_days(days as i64);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}-{:02}-{:02}",
+        rem / 3600,
+        (rem / 60) % 60,
+        rem % 60
+    )
+}
+
+/// Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (if m <= 2 { y + 1 } else { y }, m, d)
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let s = a.settings();
+    let out = out_dir(&a);
+    std::fs::create_dir_all(out.join("images"))
+        .with_context(|| format!("creating {}", out.display()))?;
+    std::fs::create_dir_all(out.join("plots"))?;
+    let kinds: Vec<RayKind> = s
+        .rays
+        .iter()
+        .map(|r| r.parse::<RayKind>().map_err(|e| anyhow::anyhow!("{e}")))
+        .collect::<Result<_>>()?;
+    for l in &s.layouts {
+        anyhow::ensure!(
+            trace_cmd::LAYOUTS.contains(&l.as_str()),
+            "unknown layout '{l}'"
+        );
+    }
+    for b in &s.builders {
+        util::builder(b)?;
+    }
+
+    let steps = (s.scenes.len() * s.builders.len() * (1 + kinds.len() * s.layouts.len())) as u64;
+    let bar = ProgressBar::new(steps);
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+
+    let catalog = sahara_scene::Catalog::discover();
+    let mut scenes = Vec::new();
+    let mut builds = Vec::new();
+    let mut traces: Vec<TraceRow> = Vec::new();
+    let mut trees_for_predictors: Vec<predict::SceneTrees> = Vec::new();
+    for scene_name in &s.scenes {
+        bar.set_message(format!("loading {scene_name}"));
+        let scene = match util::load_scene_from(&catalog, scene_name) {
+            Ok(sc) => sc,
+            Err(e) => {
+                bar.println(format!("skipping scene {scene_name}: {e:#}"));
+                bar.inc((s.builders.len() * (1 + kinds.len() * s.layouts.len())) as u64);
+                continue;
+            }
+        };
+        let mut trees = Vec::new();
+        for b in &s.builders {
+            bar.set_message(format!("{} / build {b}", scene.name));
+            let runs = adaptive_runs(&scene.triangles, b, s.build_runs, a.threads)?;
+            let (rep, bvh) =
+                build_and_measure(&scene.name, &scene.triangles, b, a.threads, runs, true)?;
+            bvh.validate(&scene.triangles)
+                .with_context(|| format!("{b} on {}", scene.name))?;
+            builds.push(rep);
+            trees.push((b.clone(), bvh));
+            bar.inc(1);
+        }
+        // Ray sets from the reference tree: identical for every tree (deterministic hits).
+        let reference = &trees[0].1;
+        let ref_tracer = sahara_trace::Bvh2Tracer::new(reference, &scene.triangles);
+        let camera = trace_cmd::trace_camera(&scene.camera);
+        let sets: Vec<RaySet> = util::with_threads(a.threads, || {
+            kinds
+                .iter()
+                .map(|&k| {
+                    RaySet::generate(
+                        k,
+                        &camera,
+                        s.width,
+                        s.height,
+                        &ref_tracer,
+                        &scene.triangles,
+                        s.seed,
+                    )
+                })
+                .collect()
+        })?;
+        let mut info = SceneInfo {
+            name: scene.name.clone(),
+            triangles: scene.triangles.len(),
+            render: None,
+            heat_maps: Vec::new(),
+        };
+        let samples: Vec<(String, Vec<sahara_geom::Ray>)> = sets
+            .iter()
+            .map(|set| {
+                let hits = (!set.kind.uses_any_hit())
+                    .then(|| sahara_trace::trace_closest(&ref_tracer, &set.rays));
+                (
+                    set.kind.name().to_string(),
+                    predict::ray_sample(&set.rays, hits.as_deref()),
+                )
+            })
+            .collect();
+        let first_row = traces.len();
+        for (b, bvh) in &trees {
+            for layout in &s.layouts {
+                let tracer = trace_cmd::make_tracer(layout, bvh, &scene.triangles)?;
+                for set in &sets {
+                    bar.set_message(format!(
+                        "{} / trace {b} {layout} {}",
+                        scene.name,
+                        set.kind.name()
+                    ));
+                    let (timing, counted) =
+                        trace_cmd::measure_trace(tracer.as_ref(), set, a.threads, s.passes)?;
+                    let rep = trace_cmd::report(
+                        &scene.name,
+                        scene.triangles.len(),
+                        b,
+                        layout,
+                        set,
+                        a.threads,
+                        timing,
+                        &counted,
+                    );
+                    if layout == "bvh2" && set.kind == RayKind::Primary {
+                        let path = format!("images/{}-{}-heat.png", file_stem(&scene.name), b);
+                        let heat = sahara_trace::heat_map(
+                            set.width,
+                            set.height,
+                            &set.pixel,
+                            &counted.work,
+                            99.0,
+                        );
+                        heat.image.write_png(out.join(&path))?;
+                        info.heat_maps.push((b.clone(), path));
+                        if info.render.is_none() {
+                            if let sahara_trace::TraceResults::Closest(hits) = &counted.results {
+                                let path = format!("images/{}-render.png", file_stem(&scene.name));
+                                let img = sahara_trace::shade(
+                                    set.width,
+                                    set.height,
+                                    &set.pixel,
+                                    &set.rays,
+                                    hits,
+                                    &scene.triangles,
+                                    sahara_trace::Shading::Grey,
+                                );
+                                img.write_png(out.join(&path))?;
+                                info.render = Some(path);
+                            }
+                        }
+                    }
+                    let cm = s.cost_model;
+                    traces.push(TraceRow {
+                        work_cost: cm.traversal as f64 * rep.inner_per_ray
+                            + cm.intersection as f64 * rep.triangles_per_ray,
+                        report: rep,
+                        speed_vs_sweep: None,
+                        work_vs_sweep: None,
+                        speed_vs_sbvh: None,
+                        work_vs_sbvh: None,
+                    });
+                    bar.inc(1);
+                }
+            }
+        }
+        relate(&mut traces[first_row..]);
+        trees_for_predictors.push(predict::SceneTrees {
+            scene,
+            trees,
+            samples,
+        });
+        scenes.push(info);
+    }
+    bar.finish_with_message("traced");
+
+    let (predictors, predicted_points) =
+        predict::evaluate(&trees_for_predictors, &builds, &traces, &s)?;
+
+    let scaling = if a.no_scaling {
+        Vec::new()
+    } else {
+        let sizes: Vec<usize> = if s.quick {
+            vec![1_000, 4_000, 16_000]
+        } else {
+            vec![1_000, 10_000, 100_000, 1_000_000]
+        };
+        eprintln!("scaling: build time against N on procedural 'soup' ({sizes:?})");
+        crate::scaling::measure(
+            &s.builders,
+            sahara_scene::Procedural::Soup,
+            &sizes,
+            if s.quick { 1 } else { 3 },
+            if s.quick { 5.0 } else { 300.0 },
+            a.threads,
+            |b, n, t| eprintln!("  {b:<16} N = {n:>9}: {t:.3} s"),
+        )?
+    };
+
+    let results = Results {
+        meta: Meta {
+            date: chrono_like_stamp(),
+            commit: util::git_commit(),
+            cpu: util::cpu_name(),
+            simd: simd_backend(),
+            settings: s,
+            seconds: t0.elapsed().as_secs_f64(),
+        },
+        scenes,
+        builds,
+        traces,
+        predictors,
+        predicted_points,
+        scaling,
+    };
+    report::write_all(&out, &results)?;
+    link_latest(&out)?;
+    println!("report written to {}", out.join("report.md").display());
+    println!("                  {}", out.join("report.html").display());
+    Ok(())
+}
+
+/// Builds slower than 5 s are timed once (the report says how many runs each has).
+fn adaptive_runs(
+    tris: &[sahara_geom::Triangle],
+    builder: &str,
+    runs: usize,
+    threads: Option<usize>,
+) -> Result<usize> {
+    if tris.len() < 50_000 {
+        return Ok(runs);
+    }
+    let b = util::builder(builder)?;
+    let input = sahara_build::BuildInput::new(tris, sahara_build::CostModel::default())?;
+    let (t, r) = util::with_threads(threads, || util::time_runs(1, || b.build(&input)))?;
+    r?;
+    Ok(if t[0] > 5.0 { 1 } else { runs })
+}
+
+/// Fills the relative columns of one scene's rows.
+fn relate(rows: &mut [TraceRow]) {
+    let find = |rows: &[TraceRow], b: &str, r: &TraceRow| {
+        rows.iter()
+            .find(|x| {
+                x.report.builder == b
+                    && x.report.layout == r.report.layout
+                    && x.report.ray_kind == r.report.ray_kind
+            })
+            .map(|x| (x.report.mrays_s.median, x.work_cost))
+    };
+    let snapshot: Vec<TraceRow> = rows.to_vec();
+    for r in rows.iter_mut() {
+        if let Some((speed, work)) = find(&snapshot, REFERENCE, r) {
+            r.speed_vs_sweep = Some(r.report.mrays_s.median / speed);
+            r.work_vs_sweep = Some(work / r.work_cost);
+        }
+        if let Some((speed, work)) = find(&snapshot, SPATIAL_REFERENCE, r) {
+            r.speed_vs_sbvh = Some(r.report.mrays_s.median / speed);
+            r.work_vs_sbvh = Some(work / r.work_cost);
+        }
+    }
+}
+
+fn simd_backend() -> String {
+    "scalar bvh2".to_string()
+}
+
+pub fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .collect()
+}
+
+/// Points `target/eval/latest` at the new folder (a symlink, or a copy where links fail).
+fn link_latest(out: &Path) -> Result<()> {
+    let Some(parent) = out.parent() else {
+        return Ok(());
+    };
+    let latest = parent.join("latest");
+    let _ = std::fs::remove_file(&latest);
+    let _ = std::fs::remove_dir_all(&latest);
+    #[cfg(unix)]
+    {
+        if let Some(name) = out.file_name() {
+            if std::os::unix::fs::symlink(name, &latest).is_ok() {
+                return Ok(());
+            }
+        }
+    }
+    copy_dir(out, &latest)
+}
+
+fn copy_dir(from: &Path, to: &Path) -> Result<()> {
+    std::fs::create_dir_all(to)?;
+    for e in std::fs::read_dir(from)? {
+        let e = e?;
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()))?;
+        } else {
+            std::fs::copy(&p, to.join(e.file_name()))?;
+        }
+    }
+    Ok(())
+}

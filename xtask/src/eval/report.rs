@@ -1,0 +1,597 @@
+//! Writes `results.json`, `results.csv`, `report.md` and a self-contained `report.html`
+//! (tables, inline SVG plots, PNG images embedded as data URLs) from one [`Results`].
+
+use super::plot::{fmt_num, Plot, Point};
+use super::{Results, TraceRow, REFERENCE, SPATIAL_REFERENCE};
+use anyhow::Result;
+use base64::Engine;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A piece of the report, rendered both as Markdown and as HTML.
+enum Block {
+    Heading(u8, String),
+    Para(String),
+    Table(Vec<String>, Vec<Vec<String>>),
+    /// An SVG plot: file name (relative), alt text, document.
+    Svg(String, String, String),
+    /// A row of images with captions.
+    Gallery(Vec<(String, String)>),
+}
+
+struct Doc {
+    blocks: Vec<Block>,
+}
+
+impl Doc {
+    fn h(&mut self, level: u8, s: impl Into<String>) {
+        self.blocks.push(Block::Heading(level, s.into()));
+    }
+    fn p(&mut self, s: impl Into<String>) {
+        self.blocks.push(Block::Para(s.into()));
+    }
+    fn table(&mut self, head: &[&str], rows: Vec<Vec<String>>) {
+        self.blocks.push(Block::Table(
+            head.iter().map(|s| s.to_string()).collect(),
+            rows,
+        ));
+    }
+
+    fn markdown(&self) -> String {
+        let mut s = String::new();
+        for b in &self.blocks {
+            match b {
+                Block::Heading(l, t) => {
+                    let _ = writeln!(s, "{} {t}\n", "#".repeat(*l as usize));
+                }
+                Block::Para(t) => {
+                    let _ = writeln!(s, "{t}\n");
+                }
+                Block::Table(head, rows) => {
+                    let _ = writeln!(s, "| {} |", head.join(" | "));
+                    let _ = writeln!(
+                        s,
+                        "|{}|",
+                        head.iter()
+                            .enumerate()
+                            .map(|(i, _)| if i == 0 { "---" } else { "---:" })
+                            .collect::<Vec<_>>()
+                            .join("|")
+                    );
+                    for r in rows {
+                        let _ = writeln!(s, "| {} |", r.join(" | "));
+                    }
+                    s.push('\n');
+                }
+                Block::Svg(path, alt, _) => {
+                    let _ = writeln!(s, "![{alt}]({path})\n");
+                }
+                Block::Gallery(items) => {
+                    for (path, cap) in items {
+                        let _ = write!(s, "![{cap}]({path}) ");
+                    }
+                    s.push_str("\n\n");
+                    let caps: Vec<&str> = items.iter().map(|(_, c)| c.as_str()).collect();
+                    let _ = writeln!(s, "*{}*\n", caps.join(" · "));
+                }
+            }
+        }
+        s
+    }
+
+    fn html(&self, dir: &Path) -> String {
+        let esc = |t: &str| {
+            t.replace('&', "&amp;")
+                .replace('<', "&lt;")
+                .replace('>', "&gt;")
+        };
+        let img = |path: &str, alt: &str| -> String {
+            match std::fs::read(dir.join(path)) {
+                Ok(bytes) => format!(
+                    r#"<img alt="{}" src="data:image/png;base64,{}">"#,
+                    esc(alt),
+                    base64::engine::general_purpose::STANDARD.encode(bytes)
+                ),
+                Err(_) => format!("<em>missing image {}</em>", esc(path)),
+            }
+        };
+        let mut s = String::from(
+            r#"<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>sahara evaluation</title>
+<style>
+body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:1em 0;font-size:13px}
+th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}
+th:first-child,td:first-child{text-align:left}
+th{background:#f3f3f3}
+img{max-width:100%;image-rendering:pixelated;border:1px solid #ddd}
+.gallery{display:flex;flex-wrap:wrap;gap:10px}
+.gallery figure{margin:0;width:300px}
+figcaption{font-size:12px;text-align:center}
+code{background:#f5f5f5;padding:1px 3px}
+</style></head><body>
+"#,
+        );
+        for b in &self.blocks {
+            match b {
+                Block::Heading(l, t) => {
+                    let _ = writeln!(s, "<h{l}>{}</h{l}>", esc(t));
+                }
+                Block::Para(t) => {
+                    let _ = writeln!(s, "<p>{}</p>", inline_md(&esc(t)));
+                }
+                Block::Table(head, rows) => {
+                    s.push_str("<table><thead><tr>");
+                    for h in head {
+                        let _ = write!(s, "<th>{}</th>", esc(h));
+                    }
+                    s.push_str("</tr></thead><tbody>\n");
+                    for r in rows {
+                        s.push_str("<tr>");
+                        for c in r {
+                            let _ = write!(s, "<td>{}</td>", inline_md(&esc(c)));
+                        }
+                        s.push_str("</tr>\n");
+                    }
+                    s.push_str("</tbody></table>\n");
+                }
+                Block::Svg(_, _, svg) => {
+                    let _ = writeln!(s, "<div class=\"plot\">{svg}</div>");
+                }
+                Block::Gallery(items) => {
+                    s.push_str("<div class=\"gallery\">");
+                    for (path, cap) in items {
+                        let _ = write!(
+                            s,
+                            "<figure>{}<figcaption>{}</figcaption></figure>",
+                            img(path, cap),
+                            esc(cap)
+                        );
+                    }
+                    s.push_str("</div>\n");
+                }
+            }
+        }
+        s.push_str("</body></html>\n");
+        s
+    }
+}
+
+/// `**bold**` and `` `code` `` in already escaped text.
+fn inline_md(t: &str) -> String {
+    let mut out = String::new();
+    let mut bold = false;
+    let mut code = false;
+    let mut chars = t.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '*' && chars.peek() == Some(&'*') {
+            chars.next();
+            out.push_str(if bold { "</b>" } else { "<b>" });
+            bold = !bold;
+        } else if c == '`' {
+            out.push_str(if code { "</code>" } else { "<code>" });
+            code = !code;
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+fn ratio(x: Option<f64>) -> String {
+    x.map_or("–".into(), |v| format!("{v:.3}"))
+}
+
+fn write_csv(dir: &Path, r: &Results) -> Result<()> {
+    let mut s = String::from(
+        "kind,scene,triangles,builder,layout,rays,ray_count,threads,build_ms_median,build_ms_min,build_ms_max,sah,epo,nodes,leaves,references,max_leaf,depth,mrays_median,mrays_min,mrays_max,inner_per_ray,leaves_per_ray,triangles_per_ray,work_cost,lcv,hits,checksum,speed_vs_sweep,work_vs_sweep,speed_vs_sbvh,work_vs_sbvh\n",
+    );
+    let o = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
+    for b in &r.builds {
+        let _ = writeln!(
+            s,
+            "build,{},{},{},,,,{},{},{},{},{},{},{},{},{},{},{},,,,,,,,,,,,,,",
+            b.scene,
+            b.triangles,
+            b.builder,
+            b.threads,
+            b.build_ms.median,
+            b.build_ms.min,
+            b.build_ms.max,
+            b.sah,
+            o(b.epo),
+            b.nodes,
+            b.leaves,
+            b.references,
+            b.max_leaf,
+            b.depth
+        );
+    }
+    for t in &r.traces {
+        let x = &t.report;
+        let _ = writeln!(
+            s,
+            "trace,{},{},{},{},{},{},{},,,,,,,,,,,{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            x.scene,
+            x.triangles,
+            x.builder,
+            x.layout,
+            x.ray_kind,
+            x.rays,
+            x.threads,
+            x.mrays_s.median,
+            x.mrays_s.min,
+            x.mrays_s.max,
+            x.inner_per_ray,
+            x.leaves_per_ray,
+            x.triangles_per_ray,
+            t.work_cost,
+            x.lcv,
+            x.hits,
+            x.checksum,
+            o(t.speed_vs_sweep),
+            o(t.work_vs_sweep),
+            o(t.speed_vs_sbvh),
+            o(t.work_vs_sbvh)
+        );
+    }
+    std::fs::write(dir.join("results.csv"), s)?;
+    Ok(())
+}
+
+/// Geometric mean (ignores non-positive values).
+fn geomean(v: &[f64]) -> Option<f64> {
+    let v: Vec<f64> = v.iter().copied().filter(|x| *x > 0.0 && x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    Some((v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
+}
+
+pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
+    std::fs::write(dir.join("results.json"), serde_json::to_string_pretty(r)?)?;
+    write_csv(dir, r)?;
+    let s = &r.meta.settings;
+    let layout0 = s.layouts.first().cloned().unwrap_or_else(|| "bvh2".into());
+    let mut d = Doc { blocks: Vec::new() };
+    d.h(1, "sahara evaluation");
+    d.p(format!(
+        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all. Cost model c_t = {}, c_i = {}. \
+         Images {}×{}; each trace is the median of {} passes after one warm-up pass (spread given as min–max); \
+         each build the median of up to {} runs (builds over 5 s on large scenes run once). Secondary-ray seed {}.{}",
+        r.meta.date,
+        r.meta.commit,
+        r.meta.cpu,
+        s.threads,
+        r.meta.simd,
+        r.meta.seconds,
+        s.cost_model.traversal,
+        s.cost_model.intersection,
+        s.width,
+        s.height,
+        s.passes,
+        s.build_runs,
+        s.seed,
+        if s.quick { " This is the **--quick** matrix." } else { "" }
+    ));
+    d.p("Speed ratios are taken within one run on the same rays: > 1 means faster than the reference tree. \
+         Work ratios compare the work per ray in SAH units (c_t · inner nodes visited + c_i · triangles tested), \
+         which machine noise cannot touch: > 1 means less work than the reference.");
+
+    // Main table: relative trace performance against sweep, per ray type, first layout.
+    let builders: Vec<&String> = s.builders.iter().collect();
+    let kinds: Vec<String> = {
+        let mut k: Vec<String> = Vec::new();
+        for t in &r.traces {
+            if !k.contains(&t.report.ray_kind) {
+                k.push(t.report.ray_kind.clone());
+            }
+        }
+        k
+    };
+    d.h(2, format!("Trace performance relative to full-sweep SAH ({layout0})"));
+    for kind in &kinds {
+        d.h(3, format!("{kind} rays: speed (work) relative to sweep"));
+        let mut rows = Vec::new();
+        let mut per_builder: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+        for sc in &r.scenes {
+            let mut row = vec![sc.name.clone()];
+            for b in &builders {
+                let t = find(&r.traces, &sc.name, b, &layout0, kind);
+                row.push(match t {
+                    Some(t) => {
+                        let e = per_builder.entry(b.as_str()).or_default();
+                        e.0.extend(t.speed_vs_sweep);
+                        e.1.extend(t.work_vs_sweep);
+                        format!("{} ({})", ratio(t.speed_vs_sweep), ratio(t.work_vs_sweep))
+                    }
+                    None => "–".into(),
+                });
+            }
+            rows.push(row);
+        }
+        let mut gm = vec!["**geometric mean**".to_string()];
+        for b in &builders {
+            let (sp, wk) = per_builder.get(b.as_str()).cloned().unwrap_or_default();
+            gm.push(format!("{} ({})", ratio(geomean(&sp)), ratio(geomean(&wk))));
+        }
+        rows.push(gm);
+        let mut head = vec!["scene"];
+        head.extend(builders.iter().map(|b| b.as_str()));
+        d.table(&head, rows);
+    }
+
+    // Spatial-split builders against SBVH.
+    let spatial: Vec<&String> = builders
+        .iter()
+        .copied()
+        .filter(|b| {
+            sahara_build::registry::entries()
+                .iter()
+                .any(|e| e.name == b.as_str() && e.spatial)
+        })
+        .collect();
+    if spatial.len() > 1 {
+        d.h(2, format!("Spatial-split builders relative to SBVH ({layout0})"));
+        let mut rows = Vec::new();
+        for sc in &r.scenes {
+            for kind in &kinds {
+                let mut row = vec![format!("{} / {kind}", sc.name)];
+                for b in &spatial {
+                    row.push(match find(&r.traces, &sc.name, b, &layout0, kind) {
+                        Some(t) => format!("{} ({})", ratio(t.speed_vs_sbvh), ratio(t.work_vs_sbvh)),
+                        None => "–".into(),
+                    });
+                }
+                rows.push(row);
+            }
+        }
+        let mut head = vec!["scene / rays"];
+        head.extend(spatial.iter().map(|b| b.as_str()));
+        d.table(&head, rows);
+    }
+
+    // Tree quality and build time per scene.
+    d.h(2, "Trees: build time, SAH and EPO");
+    for sc in &r.scenes {
+        d.h(3, format!("{} ({} triangles)", sc.name, sc.triangles));
+        let mut rows = Vec::new();
+        for b in r.builds.iter().filter(|b| b.scene == sc.name) {
+            rows.push(vec![
+                b.builder.clone(),
+                format!(
+                    "{} [{}–{}]",
+                    fmt_num(b.build_ms.median),
+                    fmt_num(b.build_ms.min),
+                    fmt_num(b.build_ms.max)
+                ),
+                format!("{:.3}", b.sah),
+                b.epo.map_or("–".into(), |e| format!("{e:.3}")),
+                b.nodes.to_string(),
+                b.references.to_string(),
+                b.max_leaf.to_string(),
+                b.depth.to_string(),
+            ]);
+        }
+        d.table(
+            &["builder", "build ms median [min–max]", "SAH", "EPO", "nodes", "references", "max leaf", "depth"],
+            rows,
+        );
+        let mut rows = Vec::new();
+        for t in r.traces.iter().filter(|t| t.report.scene == sc.name) {
+            let x = &t.report;
+            rows.push(vec![
+                format!("{} / {} / {}", x.builder, x.layout, x.ray_kind),
+                format!(
+                    "{:.2} [{:.2}–{:.2}]",
+                    x.mrays_s.median, x.mrays_s.min, x.mrays_s.max
+                ),
+                ratio(t.speed_vs_sweep),
+                format!("{:.2}", x.inner_per_ray),
+                format!("{:.2}", x.leaves_per_ray),
+                format!("{:.2}", x.triangles_per_ray),
+                ratio(t.work_vs_sweep),
+                format!("{:.2}", x.lcv),
+                x.hits.to_string(),
+            ]);
+        }
+        d.table(
+            &["builder / layout / rays", "Mrays/s median [min–max]", "speed vs sweep", "inner/ray", "leaves/ray", "tris/ray", "work vs sweep", "LCV", "hits"],
+            rows,
+        );
+    }
+
+    // Speed against error: build time vs trace cost.
+    d.h(2, "Build time against trace cost (speed against error)");
+    d.p("Each point is a builder: x = build time relative to sweep (geometric mean over scenes), \
+         y = trace time relative to sweep (geometric mean over scenes and ray types, first layout). \
+         The dashed line joins the Pareto front: no other builder is both faster to build and faster to trace.");
+    let mut pts = Vec::new();
+    for b in &builders {
+        let mut bt = Vec::new();
+        let mut tt = Vec::new();
+        for sc in &r.scenes {
+            let this = r.builds.iter().find(|x| x.scene == sc.name && &x.builder == *b);
+            let refb = r.builds.iter().find(|x| x.scene == sc.name && x.builder == REFERENCE);
+            if let (Some(t), Some(rf)) = (this, refb) {
+                if rf.build_ms.median > 0.0 {
+                    bt.push(t.build_ms.median / rf.build_ms.median);
+                }
+            }
+            for t in r
+                .traces
+                .iter()
+                .filter(|t| t.report.scene == sc.name && &t.report.builder == *b && t.report.layout == layout0)
+            {
+                if let Some(sp) = t.speed_vs_sweep {
+                    tt.push(1.0 / sp);
+                }
+            }
+        }
+        if let (Some(x), Some(y)) = (geomean(&bt), geomean(&tt)) {
+            pts.push(Point { x, y, label: b.to_string(), series: b.to_string() });
+        }
+    }
+    let plot = Plot {
+        title: "Build time against trace time (relative to sweep)".into(),
+        x_label: "build time / sweep".into(),
+        y_label: "trace time / sweep".into(),
+        log_x: true,
+        pareto: true,
+        labels: true,
+        points: pts,
+        ..Default::default()
+    };
+    add_svg(&mut d, dir, "plots/speed-vs-error.svg", "speed against error", plot.svg())?;
+
+    // Predictors.
+    if !r.predictors.is_empty() {
+        d.h(2, "Trace-cost predictors");
+        d.p("Per ray type, each predictor forecasts the trace cost of every tree normalised to the sweep tree of its scene. \
+             α is fitted by least squares on relative errors over all builders and scenes of this run (clamped to [0, 1]). \
+             Errors are over the non-reference trees; ρ is Spearman's rank correlation (pooled, and the mean of the per-scene values).");
+        let mut rows = Vec::new();
+        for p in &r.predictors {
+            rows.push(vec![
+                p.ray_kind.clone(),
+                p.predictor.clone(),
+                p.target.clone(),
+                p.alpha.map_or("–".into(), |a| format!("{a:.3}")),
+                p.report.as_ref().map_or("–".into(), |x| format!("{:.1}%", 100.0 * x.mean_relative_error)),
+                p.report.as_ref().map_or("–".into(), |x| format!("{:.1}%", 100.0 * x.max_relative_error)),
+                p.report.as_ref().and_then(|x| x.spearman).map_or("–".into(), |v| format!("{v:.3}")),
+                p.report.as_ref().and_then(|x| x.mean_scene_spearman).map_or("–".into(), |v| format!("{v:.3}")),
+                p.note.clone(),
+            ]);
+        }
+        d.table(
+            &["rays", "predictor", "measured", "α", "mean error", "max error", "ρ pooled", "ρ per scene", "note"],
+            rows,
+        );
+        let mut by_kind: BTreeMap<&str, Vec<Point>> = BTreeMap::new();
+        for p in &r.predicted_points {
+            by_kind.entry(p.ray_kind.as_str()).or_default().push(Point {
+                x: p.predicted,
+                y: p.measured,
+                label: format!("{} {}", p.scene, p.builder),
+                series: p.predictor.clone(),
+            });
+        }
+        for (kind, points) in by_kind {
+            let plot = Plot {
+                title: format!("{kind} rays: predicted against measured time (relative to sweep)"),
+                x_label: "predicted".into(),
+                y_label: "measured".into(),
+                diagonal: true,
+                points,
+                ..Default::default()
+            };
+            add_svg(
+                &mut d,
+                dir,
+                &format!("plots/predicted-{kind}.svg"),
+                &format!("predicted against measured, {kind}"),
+                plot.svg(),
+            )?;
+        }
+    }
+
+    // Scaling.
+    if !r.scaling.is_empty() {
+        d.h(2, "Build time against N (complexity)");
+        d.p("Procedural triangle soups of growing size; the exponent b of time ≈ a·N^b is fitted by least squares on log–log \
+             (over all sizes, and over N ≥ 10^4). N log N shows as b slightly above 1, N log² N a little higher, N² as 2.");
+        let sizes: Vec<usize> = r
+            .scaling
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.0))
+            .fold(Vec::new(), |mut v, n| {
+                if !v.contains(&n) {
+                    v.push(n);
+                }
+                v
+            });
+        let mut head: Vec<String> = vec!["builder".into()];
+        head.extend(sizes.iter().map(|n| format!("N={n} (ms)")));
+        head.push("b (all)".into());
+        head.push("b (N≥1e4)".into());
+        let mut rows = Vec::new();
+        let mut pts = Vec::new();
+        for sr in &r.scaling {
+            let mut row = vec![sr.builder.clone()];
+            for n in &sizes {
+                row.push(
+                    sr.points
+                        .iter()
+                        .find(|p| p.0 == *n)
+                        .map_or("–".into(), |p| fmt_num(p.1.median * 1e3)),
+                );
+            }
+            row.push(sr.exponent.map_or("–".into(), |e| format!("{e:.2}")));
+            row.push(sr.exponent_large.map_or("–".into(), |e| format!("{e:.2}")));
+            rows.push(row);
+            for p in &sr.points {
+                pts.push(Point {
+                    x: p.0 as f64,
+                    y: p.1.median * 1e3,
+                    label: sr.builder.clone(),
+                    series: sr.builder.clone(),
+                });
+            }
+        }
+        let head_refs: Vec<&str> = head.iter().map(|s| s.as_str()).collect();
+        d.table(&head_refs, rows);
+        let plot = Plot {
+            title: "Build time against N".into(),
+            x_label: "triangles".into(),
+            y_label: "build ms".into(),
+            log_x: true,
+            log_y: true,
+            lines: true,
+            points: pts,
+            ..Default::default()
+        };
+        add_svg(&mut d, dir, "plots/scaling.svg", "build time against N", plot.svg())?;
+    }
+
+    // Images.
+    d.h(2, "Renders and work heat maps (primary rays)");
+    d.p("Heat maps show inner nodes + leaves + triangles visited per pixel, normalised to the 99th percentile of each image.");
+    for sc in &r.scenes {
+        d.h(3, sc.name.clone());
+        let mut items = Vec::new();
+        if let Some(p) = &sc.render {
+            items.push((p.clone(), format!("{} render", sc.name)));
+        }
+        for (b, p) in &sc.heat_maps {
+            items.push((p.clone(), format!("{b} heat map")));
+        }
+        d.blocks.push(Block::Gallery(items));
+    }
+    let _ = SPATIAL_REFERENCE;
+
+    std::fs::write(dir.join("report.md"), d.markdown())?;
+    std::fs::write(dir.join("report.html"), d.html(dir))?;
+    Ok(())
+}
+
+fn add_svg(d: &mut Doc, dir: &Path, path: &str, alt: &str, svg: String) -> Result<()> {
+    std::fs::write(dir.join(path), &svg)?;
+    d.blocks.push(Block::Svg(path.into(), alt.into(), svg));
+    Ok(())
+}
+
+fn find<'a>(
+    traces: &'a [TraceRow],
+    scene: &str,
+    builder: &str,
+    layout: &str,
+    kind: &str,
+) -> Option<&'a TraceRow> {
+    traces.iter().find(|t| {
+        t.report.scene == scene
+            && t.report.builder == builder
+            && t.report.layout == layout
+            && t.report.ray_kind == kind
+    })
+}

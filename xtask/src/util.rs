@@ -1,0 +1,130 @@
+//! Helpers shared by the subcommands: thread pools, timing statistics, scene loading.
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Runs `f` in a rayon pool of `threads` threads (all cores when `None`).
+pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        b = b.num_threads(n.max(1));
+    }
+    let pool = b.build().context("creating the thread pool")?;
+    Ok(pool.install(f))
+}
+
+/// The thread count a pool would get.
+pub fn thread_count(threads: Option<usize>) -> usize {
+    threads.unwrap_or_else(rayon::current_num_threads)
+}
+
+/// Median, minimum and maximum of repeated measurements.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Spread {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Spread {
+    pub fn of(samples: &[f64]) -> Spread {
+        if samples.is_empty() {
+            return Spread::default();
+        }
+        let mut s = samples.to_vec();
+        s.sort_by(f64::total_cmp);
+        let n = s.len();
+        let median = if n % 2 == 1 {
+            s[n / 2]
+        } else {
+            0.5 * (s[n / 2 - 1] + s[n / 2])
+        };
+        Spread {
+            median,
+            min: s[0],
+            max: s[n - 1],
+        }
+    }
+
+    pub fn map(self, f: impl Fn(f64) -> f64) -> Spread {
+        let (a, b) = (f(self.min), f(self.max));
+        Spread {
+            median: f(self.median),
+            min: a.min(b),
+            max: a.max(b),
+        }
+    }
+}
+
+/// Runs `f` `runs` times and returns the wall-clock seconds of each run plus the last result.
+pub fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Vec<f64>, T) {
+    let mut times = Vec::with_capacity(runs);
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let t0 = Instant::now();
+        let r = f();
+        times.push(t0.elapsed().as_secs_f64());
+        last = Some(r);
+    }
+    (times, last.expect("at least one run"))
+}
+
+/// The CPU's model name (for reports).
+pub fn cpu_name() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|s| s.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string())
+}
+
+/// The current git commit (short), or "unknown".
+pub fn git_commit() -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// Builds the registry preset `name`.
+pub fn builder(name: &str) -> Result<Box<dyn sahara_build::Builder>> {
+    sahara_build::registry::by_name(name).with_context(|| {
+        format!(
+            "unknown builder '{name}'; known: {}",
+            sahara_build::registry::names().join(", ")
+        )
+    })
+}
+
+/// A scene ready for building and tracing.
+pub struct LoadedScene {
+    pub name: String,
+    pub triangles: Vec<sahara_geom::Triangle>,
+    pub camera: sahara_scene::Camera,
+}
+
+/// Loads a catalog scene by name (or a path) and converts it to triangles.
+pub fn load_scene(name: &str) -> Result<LoadedScene> {
+    let catalog = sahara_scene::Catalog::discover();
+    load_scene_from(&catalog, name)
+}
+
+/// As [`load_scene`], with a catalog already discovered.
+pub fn load_scene_from(catalog: &sahara_scene::Catalog, name: &str) -> Result<LoadedScene> {
+    let scene = catalog
+        .load(name)
+        .with_context(|| format!("loading scene '{name}'"))?;
+    Ok(LoadedScene {
+        triangles: scene.triangles(),
+        camera: scene.camera,
+        name: scene.name,
+    })
+}
