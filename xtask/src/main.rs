@@ -30,6 +30,9 @@ enum Cmd {
     Eval(eval::Args),
     /// Measure build time against N and fit the exponent.
     Scaling(scaling::Args),
+    /// Every builder on every scene: validate, and traversal against brute force ray by ray
+    /// (the heavy version of the test suite's check; takes minutes).
+    Verify,
 }
 
 fn main() {
@@ -41,9 +44,31 @@ fn main() {
         Cmd::Trace(a) => trace_cmd::run(a),
         Cmd::Eval(a) => eval::run(a),
         Cmd::Scaling(a) => scaling::run(a),
+        Cmd::Verify => verify(),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }
+}
+
+/// Runs the builder/traversal equality suite with every builder on every scene.
+fn verify() -> anyhow::Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = std::process::Command::new(cargo)
+        .args([
+            "test",
+            "--release",
+            "-p",
+            "sahara-traverse",
+            "--test",
+            "builders",
+            "--",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env("SAHARA_VERIFY_ALL", "1")
+        .status()?;
+    anyhow::ensure!(status.success(), "verification failed");
+    Ok(())
 }

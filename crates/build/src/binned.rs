@@ -158,7 +158,8 @@ impl Builder for BinnedBuilder {
         let mut prims: Vec<u32> = (0..input.len() as u32).collect();
         let mut out = Fragment::default();
         let mut scratch = Scratch::new(self.config.bins);
-        build_node(&ctx, &mut prims, 0, &mut scratch, Some(&mut out));
+        let nb = node_bounds(&ctx, &prims);
+        build_node(&ctx, &mut prims, nb, 0, &mut scratch, Some(&mut out));
         Ok(out.into_bvh(false))
     }
 }
@@ -184,7 +185,8 @@ pub fn binned_cost_only(input: &BuildInput, prims: &mut [u32], config: &BinnedCo
     }
     let ctx = Ctx::new(input, config);
     let mut scratch = Scratch::new(config.bins);
-    build_node(&ctx, prims, 0, &mut scratch, None).0
+    let nb = node_bounds(&ctx, prims);
+    build_node(&ctx, prims, nb, 0, &mut scratch, None)
 }
 
 /// Registry entries of this module: `binned` (32 bins), `binned-8` and `binned-128`.
@@ -235,13 +237,24 @@ impl<'a> Ctx<'a> {
 #[derive(Clone, Copy)]
 struct Bin {
     bounds: Aabb,
+    centroids: Aabb,
     count: u32,
 }
 
 const EMPTY_BIN: Bin = Bin {
     bounds: Aabb::EMPTY,
+    centroids: Aabb::EMPTY,
     count: 0,
 };
+
+impl Bin {
+    #[inline]
+    fn merge(&mut self, other: &Bin) {
+        self.bounds.grow_aabb(&other.bounds);
+        self.centroids.grow_aabb(&other.centroids);
+        self.count += other.count;
+    }
+}
 
 /// Per-task scratch memory: three axes of bins and the suffix sweep.
 struct Scratch {
@@ -260,19 +273,29 @@ impl Scratch {
     }
 }
 
-/// The best plane found by binning.
+/// The bounds of a set of primitives and of their centroids.
+#[derive(Clone, Copy)]
+struct Bounds {
+    bounds: Aabb,
+    centroids: Aabb,
+}
+
+/// The best plane found by binning, with the bounds of both sides.
 #[derive(Clone, Copy)]
 struct Plane {
     axis: usize,
     /// Primitives in bins `< plane` go left.
     plane: usize,
     map: BinMap,
-    cost: f64,
-    balance: u128,
+    /// Primitives going left.
+    n_left: usize,
+    left: Bounds,
+    right: Bounds,
 }
 
-/// Bounds of the primitives and of their centroids.
-fn node_bounds(ctx: &Ctx, prims: &[u32]) -> (Aabb, Aabb) {
+/// Bounds of the primitives and of their centroids (computed once, at the root; children get
+/// theirs from the bins).
+fn node_bounds(ctx: &Ctx, prims: &[u32]) -> Bounds {
     let fold = |prims: &[u32]| {
         let mut b = Aabb::EMPTY;
         let mut c = Aabb::EMPTY;
@@ -282,7 +305,7 @@ fn node_bounds(ctx: &Ctx, prims: &[u32]) -> (Aabb, Aabb) {
         }
         (b, c)
     };
-    if prims.len() >= PAR_NODE_THRESHOLD {
+    let (bounds, centroids) = if prims.len() >= PAR_NODE_THRESHOLD {
         prims
             .par_chunks(PAR_CHUNK)
             .map(fold)
@@ -291,7 +314,8 @@ fn node_bounds(ctx: &Ctx, prims: &[u32]) -> (Aabb, Aabb) {
             })
     } else {
         fold(prims)
-    }
+    };
+    Bounds { bounds, centroids }
 }
 
 /// Fills `bins` (3 axes of `K`) for the axes that have a mapping. Exact whatever the chunking:
@@ -307,6 +331,7 @@ fn fill_bins(ctx: &Ctx, prims: &[u32], maps: &[Option<BinMap>; 3], bins: &mut [B
                     let bin = &mut bins[axis * k + map.bin(c[axis])];
                     bin.count += 1;
                     bin.bounds.grow_aabb(b);
+                    bin.centroids.grow(c);
                 }
             }
         }
@@ -324,8 +349,7 @@ fn fill_bins(ctx: &Ctx, prims: &[u32], maps: &[Option<BinMap>; 3], bins: &mut [B
                 || vec![EMPTY_BIN; 3 * k],
                 |mut a, b| {
                     for (x, y) in a.iter_mut().zip(&b) {
-                        x.count += y.count;
-                        x.bounds.grow_aabb(&y.bounds);
+                        x.merge(y);
                     }
                     a
                 },
@@ -337,15 +361,18 @@ fn fill_bins(ctx: &Ctx, prims: &[u32], maps: &[Option<BinMap>; 3], bins: &mut [B
 }
 
 /// The plane of least Eq. 2 cost over the three axes. Exact ties go to the more balanced
-/// plane (smaller `n_l² + n_r²`), then to the lower axis, then to the lower plane. `None` when no plane has primitives on both sides.
-fn best_plane(ctx: &Ctx, prims: &[u32], cb: &Aabb, area: f64, s: &mut Scratch) -> Option<Plane> {
+/// plane (smaller `n_l² + n_r²`), then to the lower axis, then to the lower plane. `None`
+/// when no plane has primitives on both sides.
+fn best_plane(ctx: &Ctx, prims: &[u32], cb: &Aabb, s: &mut Scratch) -> Option<Plane> {
     let k = ctx.cfg.bins;
     let maps = [0, 1, 2].map(|a| BinMap::new(cb.min[a], cb.max[a], k));
     if maps.iter().all(Option::is_none) {
         return None;
     }
     fill_bins(ctx, prims, &maps, &mut s.bins);
-    let mut best: Option<Plane> = None;
+    // (axis, plane, map, score, balance). The score `A_l n_l + A_r n_r` orders the planes of
+    // one node as Eq. 2 does, without a division per plane.
+    let mut best: Option<(usize, usize, BinMap, f64, u128)> = None;
     for (axis, map) in maps.iter().enumerate() {
         let Some(map) = *map else { continue };
         let bins = &s.bins[axis * k..(axis + 1) * k];
@@ -366,26 +393,41 @@ fn best_plane(ctx: &Ctx, prims: &[u32], cb: &Aabb, area: f64, s: &mut Scratch) -
             if lc == 0 || rc == 0 {
                 continue;
             }
-            let cost = ctx.cost.split_cost(
-                area,
-                half_area(&lb),
-                lc as usize,
-                s.right_area[i],
-                rc as usize,
-            );
-            let balance = imbalance(lc as usize, rc as usize);
-            if best.is_none_or(|b| cost < b.cost || (cost == b.cost && balance < b.balance)) {
-                best = Some(Plane {
-                    axis,
-                    plane: i,
-                    map,
-                    cost,
-                    balance,
-                });
+            let score = half_area(&lb) * lc as f64 + s.right_area[i] * rc as f64;
+            let better = match best {
+                None => true,
+                Some((.., bs, bb)) => {
+                    score < bs || (score == bs && imbalance(lc as usize, rc as usize) < bb)
+                }
+            };
+            if better {
+                let balance = imbalance(lc as usize, rc as usize);
+                best = Some((axis, i, map, score, balance));
             }
         }
     }
-    best
+    let (axis, plane, map, ..) = best?;
+    let bins = &s.bins[axis * k..(axis + 1) * k];
+    let mut left = EMPTY_BIN;
+    let mut right = EMPTY_BIN;
+    for b in &bins[..plane] {
+        left.merge(b);
+    }
+    for b in &bins[plane..] {
+        right.merge(b);
+    }
+    let side = |b: Bin| Bounds {
+        bounds: b.bounds,
+        centroids: b.centroids,
+    };
+    Some(Plane {
+        axis,
+        plane,
+        map,
+        n_left: left.count as usize,
+        left: side(left),
+        right: side(right),
+    })
 }
 
 /// Moves the primitives of bins `< plane` to the front; returns how many there are.
@@ -417,73 +459,94 @@ fn median_split(ctx: &Ctx, prims: &mut [u32], cb: &Aabb) -> usize {
     prims.len() / 2
 }
 
-/// Builds (or, with `out == None`, only costs) the subtree over `prims`; returns its cost
-/// `c(n)` relative to the node's area, and that half area.
+/// Builds (or, with `out == None`, only costs) the subtree over `prims`, whose bounds are
+/// `nb`; returns its cost `c(n)` relative to the node's area.
 fn build_node(
     ctx: &Ctx,
     prims: &mut [u32],
+    nb: Bounds,
     depth: usize,
     scratch: &mut Scratch,
     out: Option<&mut Fragment>,
-) -> (f64, f64) {
+) -> f64 {
     let n = prims.len();
-    let (bounds, cb) = node_bounds(ctx, prims);
     let leaf_cost = ctx.cost.leaf_cost(n);
-    let area = half_area(&bounds);
+    let area = half_area(&nb.bounds);
     let can_leaf = n <= ctx.cfg.max_leaf_size;
     let plane = if n == 1 || depth >= ctx.cfg.fallback_depth {
         None
     } else {
-        best_plane(ctx, prims, &cb, area, scratch)
+        best_plane(ctx, prims, &nb.centroids, scratch)
     };
-    let make_leaf = match plane {
+    let make_leaf = match &plane {
         _ if n == 1 => true,
-        Some(p) => can_leaf && p.cost >= leaf_cost,
+        Some(p) => {
+            let (nl, nr) = (p.n_left, n - p.n_left);
+            let cost = ctx.cost.split_cost(
+                area,
+                half_area(&p.left.bounds),
+                nl,
+                half_area(&p.right.bounds),
+                nr,
+            );
+            can_leaf && cost >= leaf_cost
+        }
         None => can_leaf,
     };
     if make_leaf {
         if let Some(out) = out {
-            out.push_leaf(&bounds, prims.iter().copied());
+            out.push_leaf(&nb.bounds, prims.iter().copied());
         }
-        return (leaf_cost, area);
+        return leaf_cost;
     }
-    let mid = match plane {
-        Some(p) => partition(ctx, prims, &p),
-        None => median_split(ctx, prims, &cb),
+    let (mid, lb, rb) = match plane {
+        Some(p) => (partition(ctx, prims, &p), p.left, p.right),
+        None => {
+            let mid = median_split(ctx, prims, &nb.centroids);
+            let lb = node_bounds(ctx, &prims[..mid]);
+            let rb = node_bounds(ctx, &prims[mid..]);
+            (mid, lb, rb)
+        }
     };
     debug_assert!(mid > 0 && mid < n);
     let (left, right) = prims.split_at_mut(mid);
     let parallel = n >= PAR_SPLIT_THRESHOLD;
     let d = depth + 1;
-    let ((c_l, a_l), (c_r, a_r)) = match out {
+    let (c_l, c_r) = match out {
         Some(out) => {
-            let me = out.push_inner(&bounds);
+            let me = out.push_inner(&nb.bounds);
             if parallel {
                 let mut right_out = Fragment::default();
                 let res = rayon::join(
-                    || build_node(ctx, left, d, scratch, Some(&mut *out)),
+                    || build_node(ctx, left, lb, d, scratch, Some(&mut *out)),
                     || {
                         let mut s = Scratch::new(ctx.cfg.bins);
-                        build_node(ctx, right, d, &mut s, Some(&mut right_out))
+                        build_node(ctx, right, rb, d, &mut s, Some(&mut right_out))
                     },
                 );
                 out.set_right_here(me);
                 out.append(right_out);
                 res
             } else {
-                let l = build_node(ctx, left, d, scratch, Some(&mut *out));
+                let l = build_node(ctx, left, lb, d, scratch, Some(&mut *out));
                 out.set_right_here(me);
-                (l, build_node(ctx, right, d, scratch, Some(out)))
+                (l, build_node(ctx, right, rb, d, scratch, Some(out)))
             }
         }
         None if parallel => rayon::join(
-            || build_node(ctx, left, d, scratch, None),
-            || build_node(ctx, right, d, &mut Scratch::new(ctx.cfg.bins), None),
+            || build_node(ctx, left, lb, d, scratch, None),
+            || build_node(ctx, right, rb, d, &mut Scratch::new(ctx.cfg.bins), None),
         ),
         None => (
-            build_node(ctx, left, d, scratch, None),
-            build_node(ctx, right, d, scratch, None),
+            build_node(ctx, left, lb, d, scratch, None),
+            build_node(ctx, right, rb, d, scratch, None),
         ),
     };
-    (ctx.cost.inner_cost(area, a_l, c_l, a_r, c_r), area)
+    ctx.cost.inner_cost(
+        area,
+        half_area(&lb.bounds),
+        c_l,
+        half_area(&rb.bounds),
+        c_r,
+    )
 }

@@ -52,7 +52,7 @@ use crate::registry::Entry;
 use crate::{BuildError, BuildInput, Builder, Bvh};
 use rayon::prelude::*;
 use sahara_geom::clip::clipped_bounds;
-use sahara_geom::{Aabb, Axis, Triangle};
+use sahara_geom::{Aabb, Axis, Triangle, Vec3A};
 use sahara_metrics::CostModel;
 
 /// How SBVH finds object splits.
@@ -356,6 +356,8 @@ pub(crate) enum ObjectPartition {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct ObjectCand {
     pub part: ObjectPartition,
+    /// `A_l n_l + A_r n_r`: orders the candidates of one node as Eq. 2 does.
+    pub score: f64,
     /// Eq. 2.
     pub cost: f64,
     pub left: Aabb,
@@ -374,8 +376,8 @@ impl ObjectCand {
 
     /// The candidate order: cost, then balance, then axis, then position.
     pub fn better(&self, other: &ObjectCand) -> bool {
-        self.cost
-            .total_cmp(&other.cost)
+        self.score
+            .total_cmp(&other.score)
             .then(imbalance(self.n_left, self.n_right).cmp(&imbalance(other.n_left, other.n_right)))
             .then(self.key().cmp(&other.key()))
             .is_lt()
@@ -457,15 +459,15 @@ fn sweep_axis(
     let mut left = Aabb::EMPTY;
     for i in 1..n {
         left.grow_aabb(&refs[order[i - 1] as usize].bounds);
-        let cost = ctx
-            .cost
-            .split_cost(area, half_area(&left), i, half_area(&suffix[i]), n - i);
-        if cands.len() == k && cost > cands[k - 1].cost {
+        let (al, ar) = (half_area(&left), half_area(&suffix[i]));
+        let score = al * i as f64 + ar * (n - i) as f64;
+        if cands.len() == k && score > cands[k - 1].score {
             continue;
         }
         let cand = ObjectCand {
             part: ObjectPartition::Sorted { axis, count: i },
-            cost,
+            score,
+            cost: ctx.cost.split_cost(area, al, i, ar, n - i),
             left,
             right: suffix[i],
             n_left: i,
@@ -525,20 +527,20 @@ fn binned_object_search(
             if lc == 0 || rc == 0 {
                 continue;
             }
-            let cost = ctx.cost.split_cost(
-                area,
-                half_area(&lb),
-                lc as usize,
-                half_area(&rb),
-                rc as usize,
-            );
+            let (al, ar) = (half_area(&lb), half_area(&rb));
+            let (nl, nr) = (lc as usize, rc as usize);
+            let score = al * nl as f64 + ar * nr as f64;
+            if cands.len() == k && score > cands[k - 1].score {
+                continue;
+            }
             let cand = ObjectCand {
                 part: ObjectPartition::Binned {
                     axis,
                     plane: i,
                     map,
                 },
-                cost,
+                score,
+                cost: ctx.cost.split_cost(area, al, nl, ar, nr),
                 left: lb,
                 right: rb,
                 n_left: lc as usize,
@@ -607,6 +609,8 @@ pub(crate) struct SpatialCand {
     pub map: BinMap,
     /// The plane's coordinate.
     pub pos: f32,
+    /// `A_l n_l + A_r n_r` (with duplicated references).
+    pub score: f64,
     /// Eq. 2 with duplicated references.
     pub cost: f64,
     pub n_left: usize,
@@ -616,8 +620,8 @@ pub(crate) struct SpatialCand {
 impl SpatialCand {
     /// The candidate order: cost, then axis, then plane.
     pub fn better(&self, other: &SpatialCand) -> bool {
-        self.cost
-            .total_cmp(&other.cost)
+        self.score
+            .total_cmp(&other.score)
             .then((self.axis, self.plane).cmp(&(other.axis, other.plane)))
             .is_lt()
     }
@@ -718,8 +722,9 @@ fn spatial_axis(
         if nl == 0 || nr == 0 || (nl + nr).saturating_sub(n) > budget {
             continue;
         }
-        let cost = ctx.cost.split_cost(area, half_area(&lb), nl, ra, nr);
-        if cands.len() == k && cost > cands[k - 1].cost {
+        let la = half_area(&lb);
+        let score = la * nl as f64 + ra * nr as f64;
+        if cands.len() == k && score > cands[k - 1].score {
             continue;
         }
         let cand = SpatialCand {
@@ -727,7 +732,8 @@ fn spatial_axis(
             plane: i,
             map,
             pos: map.plane(i),
-            cost,
+            score,
+            cost: ctx.cost.split_cost(area, la, nl, ra, nr),
             n_left: nl,
             n_right: nr,
         };
@@ -746,40 +752,67 @@ fn spatial_axis(
 /// and the slab: the bounds of the real triangle clipped to the slab, up to rounding. Binning
 /// only estimates costs; the split that is finally applied clips exactly ([`clip_halves`]).
 struct SlabClipper<'a> {
-    tri: &'a Triangle,
     axis: Axis,
     bounds: &'a Aabb,
+    /// The vertices sorted by their coordinate on `axis`.
+    v: [Vec3A; 3],
+    /// Per unit of `axis`, the direction of the edges v0→v2, v0→v1 and v1→v2.
+    dir: [Vec3A; 3],
 }
 
 impl<'a> SlabClipper<'a> {
-    fn new(tri: &'a Triangle, axis: Axis, bounds: &'a Aabb) -> Self {
-        Self { tri, axis, bounds }
+    fn new(tri: &Triangle, axis: Axis, bounds: &'a Aabb) -> Self {
+        let mut v = tri.v;
+        if v[0][axis] > v[1][axis] {
+            v.swap(0, 1);
+        }
+        if v[1][axis] > v[2][axis] {
+            v.swap(1, 2);
+        }
+        if v[0][axis] > v[1][axis] {
+            v.swap(0, 1);
+        }
+        let d = |p: Vec3A, q: Vec3A| {
+            let da = q[axis] - p[axis];
+            if da > 0.0 {
+                (q - p) / da
+            } else {
+                Vec3A::ZERO
+            }
+        };
+        let dir = [d(v[0], v[2]), d(v[0], v[1]), d(v[1], v[2])];
+        Self {
+            axis,
+            bounds,
+            v,
+            dir,
+        }
     }
 
     /// Bounds of the points where the triangle's edges cross the plane `x[axis] = pos`.
     #[inline]
     fn crossing(&self, pos: f32) -> Aabb {
-        let v = &self.tri.v;
         let a = self.axis;
-        let mut b = Aabb::EMPTY;
-        for i in 0..3 {
-            let (p, q) = (v[i], v[(i + 1) % 3]);
-            let (dp, dq) = (p[a] - pos, q[a] - pos);
-            if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
-                let t = dp / (dp - dq);
-                let mut x = p + (q - p) * t;
-                x[a] = pos;
-                b.grow(x);
-            }
+        let v = &self.v;
+        if !(pos > v[0][a] && pos < v[2][a]) {
+            return Aabb::EMPTY;
         }
-        b
+        // The points' coordinate on `axis` is `pos` up to rounding; the caller clamps it.
+        let long = v[0] + self.dir[0] * (pos - v[0][a]);
+        let short = if pos < v[1][a] {
+            v[0] + self.dir[1] * (pos - v[0][a])
+        } else {
+            v[1] + self.dir[2] * (pos - v[1][a])
+        };
+        Aabb::new(long.min(short), long.max(short))
     }
 
     /// Calls `f(bin, piece_bounds)` for every bin `first..=last` the reference spans.
     #[inline]
     fn bin(&self, map: &BinMap, first: usize, last: usize, mut f: impl FnMut(usize, &Aabb)) {
         let a = self.axis;
-        let v = &self.tri.v;
+        // Lane masks instead of writes to one lane: those go through memory and stall.
+        let mask = Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(a as f32));
         let mut lower_pos = f32::NEG_INFINITY;
         let mut lower = Aabb::EMPTY;
         for b in first..=last {
@@ -790,18 +823,18 @@ impl<'a> SlabClipper<'a> {
                 (p, self.crossing(p))
             };
             let mut piece = lower.union(&upper);
-            for p in v {
+            for p in &self.v {
                 if p[a] >= lower_pos && p[a] <= upper_pos {
                     piece.grow(*p);
                 }
             }
-            let mut piece = piece.intersection(self.bounds);
+            let slab = Aabb::new(
+                Vec3A::select(mask, Vec3A::splat(lower_pos), self.bounds.min),
+                Vec3A::select(mask, Vec3A::splat(upper_pos), self.bounds.max),
+            );
+            let piece = piece.intersection(self.bounds).intersection(&slab);
             if !piece.is_empty() {
-                piece.min[a] = piece.min[a].max(lower_pos);
-                piece.max[a] = piece.max[a].min(upper_pos);
-                if !piece.is_empty() {
-                    f(b, &piece);
-                }
+                f(b, &piece);
             }
             lower_pos = upper_pos;
             lower = upper;

@@ -66,7 +66,7 @@ pub struct Endpoint {
     pub triangle: u32,
 }
 
-/// The exact EPO of `bvh` over `tris` (see the [module documentation](crate::epo)).
+/// The exact EPO of `bvh` over `tris` (see the [module documentation](mod@crate::epo)).
 ///
 /// `tris` must be the triangles the tree was built over (every reference of the tree indexes
 /// into it; a triangle no leaf references is foreign to every node). `A(S)` is the area of all
@@ -416,10 +416,10 @@ mod tests {
             spatial_splits: false,
         };
         let tris = [a, b];
-        // b ∩ box(a) = triangle (0.5,0),(1,0),(0.5,0.5): 1/8; a ∩ box(b) = triangle
-        // (0.5,0),(1,0),(0.5,0.5): 1/8. Total area 1.
+        // b ∩ box(a) = {0.5 <= x <= 1, y <= 1.5 - x}: 0.375; a ∩ box(b) = {0.5 <= x, y <= 1 - x}:
+        // 0.125. Total area 1.
         let e = epo_breakdown(&bvh, &tris, &CostModel::UNIT);
-        assert!((e.leaf - 0.25).abs() < 1e-7, "{e:?}");
+        assert!((e.leaf - 0.5).abs() < 1e-7, "{e:?}");
         assert_eq!(e.inner, 0.0);
         let m = Membership::new(&bvh, 2);
         assert!(m.contains(0, 0) && m.contains(0, 1) && m.contains(1, 0) && !m.contains(1, 1));

@@ -3,6 +3,15 @@
 //!
 //! * [`CostModel`]: the constants `c_t` (traversal step) and `c_i` (primitive test);
 //! * [`sah()`]: the surface area heuristic cost of a tree (Eq. 1 of Wodniok & Goesele);
+//! * [`epo()`]: the exact end-point overlap of Aila, Karras and Laine (2013), parallel and
+//!   deterministic ([`epo_breakdown`], [`endpoint_overlap`] for any end-point distribution);
+//! * [`lcv()`]: leaf count variability of traced rays;
+//! * [`SahEpoPredictor`]: the SAH-EPO trace-cost predictor, its least-squares fit per ray type
+//!   and its forecasting error ([`spearman`] rank correlation with ties);
+//! * [`weighted`]: SAH and EPO weighted by a ray type's real distribution (camera frustum,
+//!   visible end points), our reading of the improved primary-ray predictor.
+//!
+//! `docs/metrics.md` explains the definitions, the algorithms and the predictor fit.
 //!
 //! ```
 //! use sahara_bvh::{Bvh, Node};

@@ -84,8 +84,9 @@ impl Camera {
 /// The built-in camera of a known scene, by catalog name.
 ///
 /// The two interiors use the views from inside the nave listed in the scene folder's
-/// `SCENES.md` (`sponza_dabrovic`, `sibenik`); `san_francisco_osm` is framed with z up; any
-/// other name is framed with y up ([`Camera::framing`]). Procedural scenes get their
+/// `SCENES.md` (`sponza_dabrovic`, `sibenik`); `san_francisco_osm` (z up) is seen from the
+/// south, looking down at about 30° on its centre; any other name is framed with the up axis
+/// of [`up_axis_of`] ([`Camera::framing`]). Procedural scenes get their
 /// cameras from their generators instead.
 pub fn default_camera(name: &str, bounds: &Aabb) -> Camera {
     match name {
@@ -100,6 +101,14 @@ pub fn default_camera(name: &str, bounds: &Aabb) -> Camera {
             Vec3A::new(0.0, -8.0, 0.0),
             Vec3A::Y,
             60.0,
+        ),
+        // A flat city: framing it from the side shows a thin strip, so look down at ~30°
+        // from the south instead.
+        "san_francisco_osm" => Camera::new(
+            Vec3A::new(102.6, -1000.0, 600.0),
+            Vec3A::new(102.6, -4.2, 0.0),
+            Vec3A::Z,
+            45.0,
         ),
         _ => Camera::framing(bounds, up_axis_of(name)),
     }

@@ -271,3 +271,33 @@ fn unsupported_format_and_missing_file() {
     assert!(matches!(e, SceneError::Io { .. }));
     assert!(e.to_string().contains("here.obj"));
 }
+
+#[test]
+fn gltf_with_bad_external_uri_is_an_error() {
+    // The `gltf` crate unwraps the percent-decoding of relative URIs; the loader turns that
+    // panic into an error.
+    let dir = temp_dir("uri");
+    let json = triangle_json(r#"[{"mesh":0}]"#, true).replace(
+        r#"{"byteLength":44}"#,
+        r#"{"byteLength":44,"uri":"%FF%FE.bin"}"#,
+    );
+    let p = write(&dir, "uri.gltf", json.as_bytes());
+    let msg = load_mesh(&p).unwrap_err().to_string();
+    assert!(msg.contains("uri.gltf"), "{msg}");
+    // A missing external buffer.
+    let json = triangle_json(r#"[{"mesh":0}]"#, true).replace(
+        r#"{"byteLength":44}"#,
+        r#"{"byteLength":44,"uri":"missing.bin"}"#,
+    );
+    let p = write(&dir, "ext.gltf", json.as_bytes());
+    let msg = load_mesh(&p).unwrap_err().to_string();
+    assert!(msg.contains("ext.gltf") && msg.contains("buffers"), "{msg}");
+    // And a present one loads.
+    std::fs::write(dir.join("tri.bin"), triangle_bin(TRI, [0, 1, 2])).unwrap();
+    let json = triangle_json(r#"[{"mesh":0}]"#, true).replace(
+        r#"{"byteLength":44}"#,
+        r#"{"byteLength":42,"uri":"tri.bin"}"#,
+    );
+    let p = write(&dir, "ok.gltf", json.as_bytes());
+    assert_eq!(load_mesh(&p).unwrap().triangle_count(), 1);
+}

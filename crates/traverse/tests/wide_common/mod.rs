@@ -11,7 +11,7 @@ use sahara_geom::{clip, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 /// `n` random triangles in `[-1, 1]^3`, of mixed sizes (some long and thin).
 pub fn random_soup(n: usize, seed: u64) -> Vec<Triangle> {
     let mut r = Pcg32::new(seed, 7);
-    let mut p = |r: &mut Pcg32, s: f32| {
+    let p = |r: &mut Pcg32, s: f32| {
         Vec3A::new(
             r.range_f32(-s, s),
             r.range_f32(-s, s),

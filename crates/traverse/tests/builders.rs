@@ -1,0 +1,146 @@
+//! Every registered builder on every scene: the tree validates, and the reference traversal's
+//! closest hits and any-hits equal brute force ray by ray (distance, triangle and
+//! barycentrics; exact ties go to the lowest triangle index in both).
+//!
+//! By default this covers every procedural scene with every builder, and every scene of
+//! `../shared/scenes` (when present) with the builders that take seconds there. Set
+//! `SAHARA_VERIFY_ALL=1` to run every builder on every scene (what `cargo xtask verify`
+//! does; it takes minutes).
+
+use rayon::prelude::*;
+use sahara_build::{registry, BuildInput, CostModel};
+use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
+use sahara_scene::{Catalog, Procedural};
+use sahara_traverse::{brute, scalar, NoStats};
+
+/// About 10^4 rays: a 100×100 grid of camera rays, plus rays between random points of the
+/// scene's bounds (which start inside interiors and end in mid air).
+fn rays_for(scene: &sahara_scene::Scene, n_grid: u32, n_random: usize) -> Vec<Ray> {
+    let cam = &scene.camera;
+    let f = (cam.target - cam.eye).normalize();
+    let r = f.cross(cam.up).normalize_or_zero();
+    let r = if r == Vec3A::ZERO { f.any_orthonormal_vector() } else { r };
+    let u = r.cross(f);
+    let tan = (cam.fov_y_degrees.to_radians() * 0.5).tan();
+    let mut rays = Vec::new();
+    for y in 0..n_grid {
+        for x in 0..n_grid {
+            let sx = (2.0 * (x as f32 + 0.5) / n_grid as f32 - 1.0) * tan;
+            let sy = (1.0 - 2.0 * (y as f32 + 0.5) / n_grid as f32) * tan;
+            rays.push(Ray::new(cam.eye, f + r * sx + u * sy, 0.0, f32::INFINITY));
+        }
+    }
+    let b = scene.bounds();
+    let mut rng = Pcg32::new(7, 3);
+    let mut point = || {
+        Vec3A::new(
+            rng.range_f32(b.min.x, b.max.x),
+            rng.range_f32(b.min.y, b.max.y),
+            rng.range_f32(b.min.z, b.max.z),
+        )
+    };
+    for _ in 0..n_random {
+        let (o, t) = (point(), point());
+        rays.push(Ray::new(o, t - o, 0.0, 1.0));
+    }
+    rays
+}
+
+fn check_scene(name: &str, scene: &sahara_scene::Scene, builders: &[&str]) {
+    let tris: Vec<Triangle> = scene.triangles();
+    let rays = rays_for(scene, 100, 2_000);
+    let expect: Vec<_> = rays.par_iter().map(|r| brute::closest_hit(&tris, r)).collect();
+    let expect_any: Vec<bool> = rays.par_iter().map(|r| brute::any_hit(&tris, r)).collect();
+    assert!(
+        expect.iter().filter(|h| h.is_hit()).count() > rays.len() / 20,
+        "{name}: the test rays should hit something"
+    );
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    for &b in builders {
+        let bvh = registry::by_name(b).unwrap().build(&input).unwrap();
+        bvh.validate(&tris)
+            .unwrap_or_else(|e| panic!("{b} on {name}: invalid tree: {e}"));
+        let got: Vec<_> = rays
+            .par_iter()
+            .map(|r| scalar::closest_hit(&bvh, &tris, r, &mut NoStats))
+            .collect();
+        for (i, (g, e)) in got.iter().zip(&expect).enumerate() {
+            assert_eq!(g, e, "{b} on {name}: ray {i} ({:?})", rays[i]);
+        }
+        let any: Vec<bool> = rays
+            .par_iter()
+            .map(|r| scalar::any_hit(&bvh, &tris, r, &mut NoStats))
+            .collect();
+        assert_eq!(any, expect_any, "{b} on {name}: any-hit differs");
+    }
+}
+
+fn all_builders() -> Vec<&'static str> {
+    registry::entries()
+        .into_iter()
+        .filter(|e| !e.small_inputs_only)
+        .map(|e| e.name)
+        .collect()
+}
+
+fn verify_all() -> bool {
+    std::env::var_os("SAHARA_VERIFY_ALL").is_some_and(|v| v != "0")
+}
+
+#[test]
+fn every_builder_on_every_procedural_scene() {
+    let builders = all_builders();
+    for p in Procedural::ALL {
+        let size = if verify_all() { p.default_size() } else { 6_000 };
+        let scene = p.scene(size, sahara_scene::DEFAULT_SEED);
+        check_scene(p.name(), &scene, &builders);
+    }
+}
+
+#[test]
+fn small_input_builders_on_small_scenes() {
+    let small: Vec<&str> = registry::entries()
+        .into_iter()
+        .filter(|e| e.small_inputs_only)
+        .map(|e| e.name)
+        .collect();
+    for p in Procedural::ALL {
+        let scene = p.scene(300, 5);
+        check_scene(p.name(), &scene, &small);
+    }
+}
+
+#[test]
+fn every_builder_on_every_shared_scene() {
+    let catalog = Catalog::discover();
+    let files: Vec<_> = catalog
+        .entries()
+        .iter()
+        .filter(|e| e.path().is_some())
+        .collect();
+    if files.is_empty() {
+        eprintln!("no scene files found (../shared/scenes absent): nothing to check");
+        return;
+    }
+    let everything = all_builders();
+    for e in files {
+        let scene = catalog.load_entry(e).unwrap();
+        let n = scene.triangle_count();
+        if n > 300_000 && !verify_all() {
+            eprintln!("{}: {n} triangles, checked by `cargo xtask verify` only", e.name);
+            continue;
+        }
+        // The classic builders take milliseconds; the paper's builders take seconds to
+        // minutes on real scenes, so by default they run here on the smaller scenes only.
+        let builders: Vec<&str> = if verify_all() {
+            everything.clone()
+        } else {
+            everything
+                .iter()
+                .copied()
+                .filter(|b| ["binned", "sweep", "sbvh"].contains(b) || n <= 40_000)
+                .collect()
+        };
+        check_scene(&e.name, &scene, &builders);
+    }
+}
