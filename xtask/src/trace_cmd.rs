@@ -83,6 +83,8 @@ pub fn make_tracer<'a>(
 ) -> Result<Box<dyn Tracer + 'a>> {
     match layout {
         "bvh2" => Ok(Box::new(Bvh2Tracer::new(bvh, tris))),
+        "bvh4" => Ok(Box::new(sahara_trace::WideTracer::<4>::new(bvh, tris))),
+        "bvh8" => Ok(Box::new(sahara_trace::WideTracer::<8>::new(bvh, tris))),
         other => bail!("unknown layout '{other}' (known: {})", LAYOUTS.join(", ")),
     }
 }

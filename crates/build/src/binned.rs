@@ -256,11 +256,14 @@ impl Bin {
     }
 }
 
-/// Per-task scratch memory: three axes of bins and the suffix sweep.
+/// Per-task scratch memory: three axes of bins and the suffix sweep; for small nodes, the
+/// primitives sorted by bin and their suffix bounds.
 struct Scratch {
     bins: Vec<Bin>,
     right_area: Vec<f64>,
     right_count: Vec<u32>,
+    sorted: Vec<(u32, u32)>,
+    suffix: Vec<Aabb>,
 }
 
 impl Scratch {
@@ -269,6 +272,8 @@ impl Scratch {
             bins: vec![EMPTY_BIN; 3 * k],
             right_area: vec![0.0; k],
             right_count: vec![0; k],
+            sorted: Vec::new(),
+            suffix: Vec::new(),
         }
     }
 }
@@ -306,12 +311,10 @@ fn node_bounds(ctx: &Ctx, prims: &[u32]) -> Bounds {
         (b, c)
     };
     let (bounds, centroids) = if prims.len() >= PAR_NODE_THRESHOLD {
-        prims
-            .par_chunks(PAR_CHUNK)
-            .map(fold)
-            .reduce(|| (Aabb::EMPTY, Aabb::EMPTY), |a, b| {
-                (a.0.union(&b.0), a.1.union(&b.1))
-            })
+        prims.par_chunks(PAR_CHUNK).map(fold).reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+        )
     } else {
         fold(prims)
     };
@@ -369,7 +372,22 @@ fn best_plane(ctx: &Ctx, prims: &[u32], cb: &Aabb, s: &mut Scratch) -> Option<Pl
     if maps.iter().all(Option::is_none) {
         return None;
     }
-    fill_bins(ctx, prims, &maps, &mut s.bins);
+    if 2 * prims.len() <= k {
+        best_plane_small(ctx, prims, &maps, s)
+    } else {
+        best_plane_binned(ctx, prims, &maps, s)
+    }
+}
+
+/// [`best_plane`] by the bins.
+fn best_plane_binned(
+    ctx: &Ctx,
+    prims: &[u32],
+    maps: &[Option<BinMap>; 3],
+    s: &mut Scratch,
+) -> Option<Plane> {
+    let k = ctx.cfg.bins;
+    fill_bins(ctx, prims, maps, &mut s.bins);
     // (axis, plane, map, score, balance). The score `A_l n_l + A_r n_r` orders the planes of
     // one node as Eq. 2 does, without a division per plane.
     let mut best: Option<(usize, usize, BinMap, f64, u128)> = None;
@@ -415,6 +433,82 @@ fn best_plane(ctx: &Ctx, prims: &[u32], cb: &Aabb, s: &mut Scratch) -> Option<Pl
     }
     for b in &bins[plane..] {
         right.merge(b);
+    }
+    let side = |b: Bin| Bounds {
+        bounds: b.bounds,
+        centroids: b.centroids,
+    };
+    Some(Plane {
+        axis,
+        plane,
+        map,
+        n_left: left.count as usize,
+        left: side(left),
+        right: side(right),
+    })
+}
+
+/// [`best_plane`] for nodes with fewer primitives than half the bins: most bins are empty,
+/// so instead of sweeping `K` bins the primitives are sorted by bin and only the planes
+/// between two occupied bins are rated. A plane between occupied bins `a < b` makes the same
+/// partition, with the same bounds and the same score, as every plane `a + 1 ..= b` of the
+/// full sweep, of which the full sweep keeps the first (`a + 1`, because ties need a strictly
+/// better score or balance to win): the result is identical to the full sweep's.
+fn best_plane_small(
+    ctx: &Ctx,
+    prims: &[u32],
+    maps: &[Option<BinMap>; 3],
+    s: &mut Scratch,
+) -> Option<Plane> {
+    let n = prims.len();
+    // (axis, plane, map, score, balance)
+    let mut best: Option<(usize, usize, BinMap, f64, u128)> = None;
+    for (axis, map) in maps.iter().enumerate() {
+        let Some(map) = *map else { continue };
+        s.sorted.clear();
+        s.sorted.extend(
+            prims
+                .iter()
+                .map(|&p| (map.bin(ctx.centroids[p as usize][axis]) as u32, p)),
+        );
+        s.sorted.sort_unstable();
+        s.suffix.clear();
+        s.suffix.resize(n, Aabb::EMPTY);
+        let mut rb = Aabb::EMPTY;
+        for i in (1..n).rev() {
+            rb.grow_aabb(&ctx.bounds[s.sorted[i].1 as usize]);
+            s.suffix[i] = rb;
+        }
+        let mut lb = Aabb::EMPTY;
+        for i in 1..n {
+            lb.grow_aabb(&ctx.bounds[s.sorted[i - 1].1 as usize]);
+            if s.sorted[i].0 == s.sorted[i - 1].0 {
+                continue;
+            }
+            let score = half_area(&lb) * i as f64 + half_area(&s.suffix[i]) * (n - i) as f64;
+            let balance = imbalance(i, n - i);
+            let better = match best {
+                None => true,
+                Some((.., bs, bb)) => score < bs || (score == bs && balance < bb),
+            };
+            if better {
+                best = Some((axis, s.sorted[i - 1].0 as usize + 1, map, score, balance));
+            }
+        }
+    }
+    let (axis, plane, map, ..) = best?;
+    let mut left = EMPTY_BIN;
+    let mut right = EMPTY_BIN;
+    for &p in prims {
+        let c = ctx.centroids[p as usize];
+        let side = if map.bin(c[axis]) < plane {
+            &mut left
+        } else {
+            &mut right
+        };
+        side.bounds.grow_aabb(&ctx.bounds[p as usize]);
+        side.centroids.grow(c);
+        side.count += 1;
     }
     let side = |b: Bin| Bounds {
         bounds: b.bounds,
@@ -542,11 +636,49 @@ fn build_node(
             build_node(ctx, right, rb, d, scratch, None),
         ),
     };
-    ctx.cost.inner_cost(
-        area,
-        half_area(&lb.bounds),
-        c_l,
-        half_area(&rb.bounds),
-        c_r,
-    )
+    ctx.cost
+        .inner_cost(area, half_area(&lb.bounds), c_l, half_area(&rb.bounds), c_r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::rng::Pcg32;
+    use sahara_geom::Triangle;
+
+    #[test]
+    fn small_node_path_equals_full_binning() {
+        let mut rng = Pcg32::new(3, 4);
+        let tris: Vec<Triangle> = (0..64)
+            .map(|i| {
+                // Coarse positions so that several centroids share bins and planes tie.
+                let o = Vec3A::new(rng.below(6) as f32, rng.below(3) as f32, (i % 2) as f32);
+                let s = 0.25 * (1 + rng.below(3)) as f32;
+                Triangle::new(o, o + Vec3A::X * s, o + Vec3A::Y * s)
+            })
+            .collect();
+        let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+        for bins in [16, 32, 128] {
+            let cfg = BinnedConfig::with_bins(bins);
+            let ctx = Ctx::new(&input, &cfg);
+            let mut s = Scratch::new(bins);
+            for trial in 0..200 {
+                let n = 2 + trial % (bins / 2 - 1);
+                let prims: Vec<u32> = (0..n).map(|_| rng.below(64)).collect();
+                let cb = node_bounds(&ctx, &prims).centroids;
+                let maps = [0, 1, 2].map(|a| BinMap::new(cb.min[a], cb.max[a], bins));
+                let a = best_plane_small(&ctx, &prims, &maps, &mut s);
+                let b = best_plane_binned(&ctx, &prims, &maps, &mut s);
+                match (a, b) {
+                    (None, None) => {}
+                    (Some(a), Some(b)) => {
+                        assert_eq!((a.axis, a.plane, a.n_left), (b.axis, b.plane, b.n_left));
+                        assert_eq!(a.left.bounds, b.left.bounds);
+                        assert_eq!(a.right.centroids, b.right.centroids);
+                    }
+                    _ => panic!("one path found a plane, the other did not"),
+                }
+            }
+        }
+    }
 }

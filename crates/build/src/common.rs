@@ -93,14 +93,13 @@ impl BinMap {
     /// flat or so thin that its bin scale is not a finite number.
     pub fn new(min: f32, max: f32, bins: usize) -> Option<Self> {
         let extent = max - min;
-        if !(extent > 0.0) {
-            return None;
-        }
+        // NaN-safe: a NaN extent or scale fails these tests.
         let scale = bins as f32 / extent;
-        if !scale.is_finite() || !(scale > 0.0) {
-            return None;
+        if extent > 0.0 && scale.is_finite() && scale > 0.0 {
+            Some(Self { min, scale, bins })
+        } else {
+            None
         }
-        Some(Self { min, scale, bins })
     }
 
     /// The bin of coordinate `x` (clamped to `0..bins`; monotone in `x`).

@@ -17,7 +17,8 @@
 //! and the rating of a split `(L, R)` of the node being built is
 //! `c_t + A(L)/A(P) LA(L, depth - 1) + A(R)/A(P) LA(R, depth - 1)`. With `depth = 1` this is
 //! Eq. 2: the greedy sweep builder. The candidates of the node itself are also the `k` best by
-//! Eq. 2. A single primitive is always a leaf.
+//! Eq. 2 (overall, or on each axis with [`PopovConfig::per_axis`]). A single primitive is always
+//! a leaf.
 //!
 //! The **hybrid** ([`Frontier::Temporary`]) costs the frontier nodes with temporary sweep SAH
 //! subtrees, `LA(S, 0) = c(T_S)` (the cost-only [`crate::sweep::sweep_cost`]), instead of as
@@ -69,8 +70,10 @@ pub struct PopovConfig {
     /// top-k temporary-subtree builder).
     pub depth: usize,
     /// Number of candidates (the best by Eq. 2) tried at every node and every look-ahead
-    /// level, at least 1.
+    /// level, at least 1; per axis with `per_axis`.
     pub k: usize,
+    /// Take the `k` best candidates of each axis (`3k` in all) instead of the `k` best overall.
+    pub per_axis: bool,
     /// How frontier nodes are costed.
     pub frontier: Frontier,
     /// Nodes with at most this many primitives are built by the plain greedy rule (0: never).
@@ -91,6 +94,7 @@ impl PopovConfig {
     pub const D2: PopovConfig = PopovConfig {
         depth: 2,
         k: 8,
+        per_axis: false,
         frontier: Frontier::Leaf,
         greedy_below: 16,
         max_leaf_size: 8,
@@ -99,17 +103,20 @@ impl PopovConfig {
     pub const D3: PopovConfig = PopovConfig {
         depth: 3,
         k: 4,
+        per_axis: false,
         frontier: Frontier::Leaf,
         greedy_below: 16,
         max_leaf_size: 8,
     };
-    /// The hybrid (registered as `hybrid`): two levels, 4 candidates per level, frontier
-    /// costed with temporary sweep subtrees.
+    /// The hybrid (registered as `hybrid`): two levels, the best candidate of each axis per
+    /// level, frontier costed with temporary sweep subtrees; nodes of at most 8 primitives
+    /// greedy.
     pub const HYBRID: PopovConfig = PopovConfig {
         depth: 2,
-        k: 4,
+        k: 1,
+        per_axis: true,
         frontier: Frontier::Temporary,
-        greedy_below: 32,
+        greedy_below: 8,
         max_leaf_size: 8,
     };
 
@@ -183,7 +190,7 @@ impl Builder for PopovBuilder {
         let params = EngineParams {
             candidates: Candidates::TopK {
                 k: c.k,
-                per_axis: false,
+                per_axis: c.per_axis,
             },
             include_greedy: true,
             greedy_below: c.greedy_below,
@@ -193,6 +200,7 @@ impl Builder for PopovBuilder {
             cost: input.cost,
             depth: c.depth,
             k: c.k,
+            per_axis: c.per_axis,
             frontier: c.frontier,
             max_leaf: c.max_leaf_size,
         };
@@ -219,7 +227,7 @@ pub fn registry_entries() -> Vec<Entry> {
         },
         Entry {
             name: "hybrid",
-            summary: "look-ahead SAH with frontier nodes costed by temporary sweep subtrees (Popov et al. + Wodniok & Goesele)",
+            summary: "look-ahead SAH (depth 2, best split per axis) with frontier nodes costed by temporary sweep subtrees (Popov et al. + Wodniok & Goesele)",
             spatial: false,
             small_inputs_only: false,
             make: || Box::new(PopovBuilder::named("hybrid", PopovConfig::HYBRID)),
@@ -231,12 +239,15 @@ struct LookAhead {
     cost: CostModel,
     depth: usize,
     k: usize,
+    per_axis: bool,
     frontier: Frontier,
     max_leaf: usize,
 }
 
 impl Rater for LookAhead {
-    fn rate(&self, node: &LocalNode, c: &SplitCandidate) -> f64 {
+    type Scratch = ();
+
+    fn rate(&self, node: &LocalNode, c: &SplitCandidate, _: &mut ()) -> f64 {
         if self.depth <= 1 && self.frontier == Frontier::Leaf {
             return c.cost;
         }
@@ -281,13 +292,15 @@ impl LookAhead {
             };
         }
         let mut areas = vec![0.0f32; n];
-        let mut top = Vec::with_capacity(self.k + 1);
+        let mut lists: [Vec<SplitCandidate>; 3] = Default::default();
         let mut node = Aabb::EMPTY;
         for (axis, order) in orders.iter().enumerate() {
+            let list = &mut lists[if self.per_axis { axis } else { 0 }];
             node = sweep::sweep_axis(bounds, order, axis, &mut areas, &self.cost, |c| {
-                offer_top_k(&mut top, self.k, c, n)
+                offer_top_k(list, self.k, c, n)
             });
         }
+        let top: Vec<SplitCandidate> = lists.into_iter().flatten().collect();
         let area = node.half_area() as f64;
         let mut best = if n <= self.max_leaf {
             self.cost.leaf_cost(n)
@@ -302,7 +315,8 @@ impl LookAhead {
                 let (mut l, mut r) = split([&orders[0], &orders[1], &orders[2]], c, marks);
                 let cl = self.look_ahead(bounds, &mut l, depth - 1, marks);
                 let cr = self.look_ahead(bounds, &mut r, depth - 1, marks);
-                self.cost.inner_cost(area, c.left_area, cl, c.right_area, cr)
+                self.cost
+                    .inner_cost(area, c.left_area, cl, c.right_area, cr)
             };
             if rating < best {
                 best = rating;

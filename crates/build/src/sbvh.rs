@@ -294,8 +294,8 @@ pub(crate) struct Ctx<'a> {
     pub tris: &'a [Triangle],
     pub cost: CostModel,
     pub cfg: SbvhConfig,
-    /// `alpha` times the half area of the root.
-    pub min_overlap: f64,
+    /// Half area of the root (of the whole build, also for temporary subtrees).
+    pub root_area: f64,
 }
 
 impl<'a> Ctx<'a> {
@@ -304,21 +304,13 @@ impl<'a> Ctx<'a> {
             tris: input.triangles(),
             cost: input.cost,
             cfg,
-            min_overlap: cfg.alpha as f64 * half_area(&refs_bounds(root_refs)),
+            root_area: half_area(&refs_bounds(root_refs)),
         }
     }
 
-    /// The same context with another configuration (the `alpha` threshold is kept).
+    /// The same context with another configuration.
     pub fn with_config(&self, cfg: SbvhConfig) -> Self {
-        Self {
-            min_overlap: if self.cfg.alpha > 0.0 {
-                self.min_overlap / self.cfg.alpha as f64 * cfg.alpha as f64
-            } else {
-                self.min_overlap
-            },
-            cfg,
-            ..*self
-        }
+        Self { cfg, ..*self }
     }
 }
 
@@ -374,7 +366,7 @@ impl ObjectCand {
         }
     }
 
-    /// The candidate order: cost, then balance, then axis, then position.
+    /// The candidate order: score (as Eq. 2), then balance, then axis, then position.
     pub fn better(&self, other: &ObjectCand) -> bool {
         self.score
             .total_cmp(&other.score)
@@ -419,7 +411,9 @@ pub(crate) fn object_search(ctx: &Ctx, refs: &[Ref], area: f64, k: usize) -> Obj
             .map(|axis| sweep_axis(ctx, refs, axis, area, k))
             .collect()
     } else {
-        (0..3).map(|axis| sweep_axis(ctx, refs, axis, area, k)).collect()
+        (0..3)
+            .map(|axis| sweep_axis(ctx, refs, axis, area, k))
+            .collect()
     };
     let mut cands = Vec::with_capacity(k);
     let mut orders: [Vec<u32>; 3] = Default::default();
@@ -595,8 +589,14 @@ fn median_split(refs: &[Ref]) -> (Vec<Ref>, Vec<Ref>) {
         .collect();
     keys.sort_unstable();
     let mid = refs.len() / 2;
-    let left = keys[..mid].iter().map(|&k| refs[k as u32 as usize]).collect();
-    let right = keys[mid..].iter().map(|&k| refs[k as u32 as usize]).collect();
+    let left = keys[..mid]
+        .iter()
+        .map(|&k| refs[k as u32 as usize])
+        .collect();
+    let right = keys[mid..]
+        .iter()
+        .map(|&k| refs[k as u32 as usize])
+        .collect();
     (left, right)
 }
 
@@ -618,7 +618,7 @@ pub(crate) struct SpatialCand {
 }
 
 impl SpatialCand {
-    /// The candidate order: cost, then axis, then plane.
+    /// The candidate order: score (as Eq. 2), then axis, then plane.
     pub fn better(&self, other: &SpatialCand) -> bool {
         self.score
             .total_cmp(&other.score)
@@ -628,11 +628,16 @@ impl SpatialCand {
 }
 
 /// True when the SBVH rule searches spatial splits at this node, given its best object split.
-pub(crate) fn spatial_allowed(ctx: &Ctx, best_object: &ObjectCand, depth: usize, budget: usize) -> bool {
+pub(crate) fn spatial_allowed(
+    ctx: &Ctx,
+    best_object: &ObjectCand,
+    depth: usize,
+    budget: usize,
+) -> bool {
     ctx.cfg.spatial_bins >= 2
         && depth < ctx.cfg.max_spatial_depth
         && budget > 0
-        && best_object.overlap() > ctx.min_overlap
+        && best_object.overlap() > ctx.cfg.alpha as f64 * ctx.root_area
 }
 
 /// The `k` best spatial splits of a node whose duplication fits in `budget`.
@@ -700,7 +705,9 @@ fn spatial_axis(
         }
         let tri = &ctx.tris[r.prim as usize];
         let pieces = SlabClipper::new(tri, axis, &r.bounds);
-        pieces.bin(&map, first, last, |b, piece| bins[b].bounds.grow_aabb(piece));
+        pieces.bin(&map, first, last, |b, piece| {
+            bins[b].bounds.grow_aabb(piece)
+        });
     }
     let n = refs.len();
     let mut right = vec![(0.0f64, 0u32); nb];
@@ -842,20 +849,38 @@ impl<'a> SlabClipper<'a> {
     }
 }
 
-/// Bounds of the parts of `tri` inside the two halves of `cur` cut at `pos` on `axis` (the
-/// triangle is clipped exactly, so a non-empty half always touches the triangle).
+/// Bounds of the parts of `tri` inside the two halves of `cur` cut at `pos` on `axis`.
+///
+/// The triangle is clipped to each half box, so a non-empty half touches the triangle. The
+/// clipped polygon's vertices are rounded to `f32`, which may move them off the triangle by
+/// half a unit in the last place: on a triangle that is almost flat along an axis this is
+/// enough for the rounded box to miss the real triangle. Each piece's box is therefore grown
+/// by about two units in the last place and then intersected with its half box again, so that
+/// it stays inside the reference's box and on its side of the plane.
 fn clip_halves(tri: &Triangle, axis: Axis, pos: f32, cur: &Aabb) -> (Aabb, Aabb) {
     let mut lbox = *cur;
     lbox.max[axis] = lbox.max[axis].min(pos);
     let mut rbox = *cur;
     rbox.min[axis] = rbox.min[axis].max(pos);
-    (clipped_bounds(tri, &lbox), clipped_bounds(tri, &rbox))
+    let piece = |half: &Aabb| {
+        let b = clipped_bounds(tri, half);
+        if b.is_empty() {
+            return b;
+        }
+        let slack = |v: Vec3A| v.abs() * (2.0 * f32::EPSILON) + Vec3A::splat(f32::MIN_POSITIVE);
+        Aabb::new(b.min - slack(b.min), b.max + slack(b.max)).intersection(half)
+    };
+    (piece(&lbox), piece(&rbox))
 }
 
 /// The two sides of a spatial split (with reference unsplitting if configured), or `None`
 /// when one side would be empty. No triangle is lost: a reference is dropped from a side only
 /// when its part there is empty, and then it goes whole to the other side.
-pub(crate) fn apply_spatial(ctx: &Ctx, refs: &[Ref], cand: &SpatialCand) -> Option<(Vec<Ref>, Vec<Ref>)> {
+pub(crate) fn apply_spatial(
+    ctx: &Ctx,
+    refs: &[Ref],
+    cand: &SpatialCand,
+) -> Option<(Vec<Ref>, Vec<Ref>)> {
     let (axis, pos, map) = (cand.axis, cand.pos, cand.map);
     let mut left = Vec::with_capacity(cand.n_left);
     let mut right = Vec::with_capacity(cand.n_right);
@@ -903,8 +928,8 @@ pub(crate) fn apply_spatial(ctx: &Ctx, refs: &[Ref], cand: &SpatialCand) -> Opti
             }
             (false, false) if ctx.cfg.unsplitting => {
                 let (nl, nr) = (left.len() as f64, right.len() as f64);
-                let c_split = half_area(&lb.union(&pl)) * (nl + 1.0)
-                    + half_area(&rb.union(&pr)) * (nr + 1.0);
+                let c_split =
+                    half_area(&lb.union(&pl)) * (nl + 1.0) + half_area(&rb.union(&pr)) * (nr + 1.0);
                 let c_left = half_area(&lb.union(&s.bounds)) * (nl + 1.0) + half_area(&rb) * nr;
                 let c_right = half_area(&lb) * nl + half_area(&rb.union(&s.bounds)) * (nr + 1.0);
                 if c_left < c_split && c_left <= c_right {
@@ -1004,6 +1029,19 @@ pub(crate) fn emit_leaf(out: Option<&mut Fragment>, bounds: &Aabb, refs: &[Ref])
     }
 }
 
+/// The duplication budgets of two children with `n_left` and `n_right` references made from
+/// a parent with `n_parent` references and budget `budget`: what the split did not use, shared
+/// in proportion to the children's reference counts.
+pub(crate) fn child_budgets(
+    n_parent: usize,
+    n_left: usize,
+    n_right: usize,
+    budget: usize,
+) -> (usize, usize) {
+    let dups = (n_left + n_right).saturating_sub(n_parent);
+    share_budget(budget.saturating_sub(dups), n_left, n_right)
+}
+
 /// Recurses into two children (in parallel above a threshold), with the duplication budget
 /// left after the split shared between them; returns `((c_l, a_l), (c_r, a_r))`.
 #[allow(clippy::too_many_arguments)]
@@ -1020,9 +1058,7 @@ pub(crate) fn recurse_children<F>(
 where
     F: Fn(Vec<Ref>, usize, usize, Option<&mut Fragment>) -> (f64, f64) + Sync,
 {
-    let dups = (left.len() + right.len()).saturating_sub(n_parent);
-    let rest = budget.saturating_sub(dups);
-    let (bl, br) = share_budget(rest, left.len(), right.len());
+    let (bl, br) = child_budgets(n_parent, left.len(), right.len(), budget);
     let parallel = left.len() + right.len() >= PAR_SPLIT_THRESHOLD;
     let d = depth + 1;
     match out {

@@ -191,6 +191,13 @@ impl Marks {
         }
     }
 
+    /// Makes room for ids `0..len` (new flags are clear; never shrinks).
+    pub fn reserve_ids(&mut self, len: usize) {
+        if self.flags.len() < len {
+            self.flags.resize_with(len, || AtomicBool::new(false));
+        }
+    }
+
     /// Number of flags.
     pub fn len(&self) -> usize {
         self.flags.len()
@@ -211,6 +218,13 @@ impl Marks {
     #[inline]
     pub fn get(&self, id: u32) -> bool {
         self.flags[id as usize].load(Ordering::Relaxed)
+    }
+}
+
+impl Default for Marks {
+    /// No flags (see [`Marks::reserve_ids`]).
+    fn default() -> Self {
+        Self::new(0)
     }
 }
 
@@ -243,6 +257,14 @@ impl SplitCandidate {
     /// the candidates of a node, so choices never depend on evaluation order.
     #[inline]
     pub fn better_than(&self, other: &SplitCandidate, n: usize) -> bool {
+        // Fast paths, equivalent to `total_cmp` for these operands (it differs from `<` only
+        // on NaN and on -0.0 == +0.0, which fall through).
+        if self.cost < other.cost {
+            return true;
+        }
+        if self.cost > other.cost {
+            return false;
+        }
         match self.cost.total_cmp(&other.cost) {
             CmpOrdering::Less => true,
             CmpOrdering::Greater => false,
@@ -298,7 +320,10 @@ pub fn sorted_orders(centroids: &[Vec3A], ids: &[u32]) -> [Vec<u32>; 3] {
         }
         keyed.into_iter().map(|k| k as u32).collect::<Vec<u32>>()
     };
-    let (x, (y, z)) = rayon::join(|| sort_axis(0), || rayon::join(|| sort_axis(1), || sort_axis(2)));
+    let (x, (y, z)) = rayon::join(
+        || sort_axis(0),
+        || rayon::join(|| sort_axis(1), || sort_axis(2)),
+    );
     [x, y, z]
 }
 

@@ -128,23 +128,24 @@ impl TsahConfig {
         always_include_greedy_best: true,
         max_leaf_size: 8,
     };
-    /// The default `O(N log² N)` builder (registered as `tsah-topk`): the 4 best candidates
-    /// by Eq. 2 rated with sweep temporaries; nodes of at most 32 primitives greedy.
+    /// The default `O(N log² N)` builder (registered as `tsah-topk`): on each axis the 2 best
+    /// candidates by Eq. 2 (6 in all, the greedy-best among them) rated with sweep
+    /// temporaries; nodes of at most 8 primitives greedy.
     pub const TOP_K: TsahConfig = TsahConfig {
         candidates: Candidates::TopK {
-            k: 4,
-            per_axis: false,
+            k: 2,
+            per_axis: true,
         },
         temporary: Temporary::Sweep,
-        greedy_below: 32,
+        greedy_below: 8,
         always_include_greedy_best: true,
         max_leaf_size: 8,
     };
-    /// The fastest preset (registered as `tsah-binned`): 4 equal-width bins per axis (up to
-    /// 9 planes) plus the greedy-best split, rated with 16-bin binned temporaries; nodes of
-    /// at most 32 primitives greedy.
+    /// The fastest preset (registered as `tsah-binned`): the centroid-midpoint plane of each
+    /// axis (2 bins per axis) plus the greedy-best split, rated with 16-bin binned
+    /// temporaries; nodes of at most 32 primitives greedy.
     pub const BINNED: TsahConfig = TsahConfig {
-        candidates: Candidates::Binned { bins_per_axis: 4 },
+        candidates: Candidates::Binned { bins_per_axis: 2 },
         temporary: Temporary::Binned { bins: 16 },
         greedy_below: 32,
         always_include_greedy_best: true,
@@ -177,7 +178,10 @@ impl TsahConfig {
         let cands = match self.candidates {
             Candidates::Exhaustive => "all sweep candidates".to_string(),
             Candidates::TopK { k, per_axis } => {
-                format!("top-{k}{} by Eq. 2", if per_axis { " per axis" } else { "" })
+                format!(
+                    "top-{k}{} by Eq. 2",
+                    if per_axis { " per axis" } else { "" }
+                )
             }
             Candidates::Binned { bins_per_axis } => format!("{bins_per_axis} bins per axis"),
         };
@@ -287,34 +291,47 @@ pub(crate) struct TemporaryRater {
     pub temporary: Temporary,
 }
 
-impl Rater for TemporaryRater {
-    fn needs_centroids(&self) -> bool {
-        matches!(self.temporary, Temporary::Binned { .. })
-    }
+/// Reusable buffers of [`TemporaryRater`].
+#[derive(Default)]
+pub(crate) struct TempScratch {
+    marks: Marks,
+    left: [Vec<u32>; 3],
+    right: [Vec<u32>; 3],
+    sweep: SweepScratch,
+    binned: BinnedScratch,
+    boxes: Vec<sahara_geom::Aabb>,
+}
 
-    fn rate(&self, node: &LocalNode, c: &SplitCandidate) -> f64 {
+impl Rater for TemporaryRater {
+    type Scratch = TempScratch;
+
+    fn rate(&self, node: &LocalNode, c: &SplitCandidate, sc: &mut TempScratch) -> f64 {
         let (l, r) = match self.temporary {
-            Temporary::Sweep => sweep_sides(node, c, &self.cost, self.max_leaf),
+            Temporary::Sweep => sweep_sides(node, c, &self.cost, self.max_leaf, sc),
             Temporary::Binned { bins } => {
                 let order = &node.orders[c.axis];
-                let side = |ids: &[u32]| {
-                    let mut ids = ids.to_vec();
-                    binned_cost(
-                        &node.bounds,
-                        &node.centroids,
-                        &mut ids,
-                        bins,
-                        &self.cost,
-                        self.max_leaf,
-                        &mut BinnedScratch::default(),
+                let side =
+                    |ids: &[u32], boxes: &mut Vec<sahara_geom::Aabb>, bs: &mut BinnedScratch| {
+                        boxes.clear();
+                        boxes.extend(ids.iter().map(|&i| node.bounds[i as usize]));
+                        binned_cost(boxes, bins, &self.cost, self.max_leaf, bs)
+                    };
+                let (lo, hi) = order.split_at(c.pos);
+                if node.len() >= JOIN_SIDES {
+                    rayon::join(
+                        || side(lo, &mut sc.boxes, &mut sc.binned),
+                        || side(hi, &mut Vec::new(), &mut BinnedScratch::default()),
                     )
-                };
-                join_if(node.len() >= JOIN_SIDES, || side(&order[..c.pos]), || {
-                    side(&order[c.pos..])
-                })
+                } else {
+                    (
+                        side(lo, &mut sc.boxes, &mut sc.binned),
+                        side(hi, &mut sc.boxes, &mut sc.binned),
+                    )
+                }
             }
         };
-        self.cost.inner_cost(node.area, l.area, l.cost, r.area, r.cost)
+        self.cost
+            .inner_cost(node.area, l.area, l.cost, r.area, r.cost)
     }
 }
 
@@ -324,46 +341,44 @@ pub(crate) fn sweep_sides(
     c: &SplitCandidate,
     cost: &sahara_metrics::CostModel,
     max_leaf: usize,
+    sc: &mut TempScratch,
 ) -> (SubtreeCost, SubtreeCost) {
     let n = node.len();
-    let marks = Marks::new(n);
-    let mut left: [Vec<u32>; 3] = std::array::from_fn(|_| vec![0; c.pos]);
-    let mut right: [Vec<u32>; 3] = std::array::from_fn(|_| vec![0; n - c.pos]);
+    let TempScratch {
+        marks,
+        left,
+        right,
+        sweep: sweep_scratch,
+        ..
+    } = sc;
+    marks.reserve_ids(n);
+    for (l, r) in left.iter_mut().zip(right.iter_mut()) {
+        l.resize(c.pos, 0);
+        r.resize(n - c.pos, 0);
+    }
     {
-        let [l0, l1, l2] = &mut left;
-        let [r0, r1, r2] = &mut right;
+        let [l0, l1, l2] = &mut *left;
+        let [r0, r1, r2] = &mut *right;
         sweep::split_orders(
             node.orders(),
             c.axis,
             c.pos,
-            &marks,
+            marks,
             [l0, l1, l2],
             [r0, r1, r2],
         );
     }
-    let side = |o: &mut [Vec<u32>; 3]| {
+    let marks = &*marks;
+    let side = |o: &mut [Vec<u32>; 3], s: &mut SweepScratch| {
         let [a, b, c] = o;
-        sweep::sweep_cost(
-            &node.bounds,
-            [a, b, c],
-            &marks,
-            cost,
-            max_leaf,
-            &mut SweepScratch::new(),
-        )
+        sweep::sweep_cost(&node.bounds, [a, b, c], marks, cost, max_leaf, s)
     };
-    join_if(n >= JOIN_SIDES, || side(&mut left), || side(&mut right))
-}
-
-/// `rayon::join` when `cond`, else both closures in order on this thread.
-fn join_if<A: Send, B: Send>(
-    cond: bool,
-    a: impl FnOnce() -> A + Send,
-    b: impl FnOnce() -> B + Send,
-) -> (A, B) {
-    if cond {
-        rayon::join(a, b)
+    if n >= JOIN_SIDES {
+        rayon::join(
+            || side(left, sweep_scratch),
+            || side(right, &mut SweepScratch::new()),
+        )
     } else {
-        (a(), b())
+        (side(left, sweep_scratch), side(right, sweep_scratch))
     }
 }

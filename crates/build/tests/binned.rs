@@ -111,7 +111,11 @@ fn bits(bvh: &Bvh) -> Vec<u32> {
 #[test]
 fn random_soups_validate() {
     for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (5000, 5)] {
-        for config in [BinnedConfig::DEFAULT, BinnedConfig::FAST, BinnedConfig::FINE] {
+        for config in [
+            BinnedConfig::DEFAULT,
+            BinnedConfig::FAST,
+            BinnedConfig::FINE,
+        ] {
             build(&soup(n, seed), config);
         }
     }
@@ -137,10 +141,16 @@ fn degenerate_inputs() {
     let bvh = build(&point, BinnedConfig::DEFAULT);
     // Median splits make a balanced tree.
     assert!(bvh.stats().depth <= 12, "depth {}", bvh.stats().depth);
-    build(&[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)], BinnedConfig::DEFAULT);
+    build(
+        &[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)],
+        BinnedConfig::DEFAULT,
+    );
 
     let input = BuildInput::new(&[], CostModel::default()).unwrap();
-    assert_eq!(BinnedBuilder::default().build(&input).unwrap(), Bvh::empty());
+    assert_eq!(
+        BinnedBuilder::default().build(&input).unwrap(),
+        Bvh::empty()
+    );
     assert_eq!(
         binned_cost_only(&input, &mut [], &BinnedConfig::default()),
         0.0
@@ -241,8 +251,18 @@ fn deterministic_across_thread_counts() {
 fn more_bins_do_not_hurt_much_and_registry_names() {
     let tris = soup(20_000, 51);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    let s8 = sah(&BinnedBuilder::new(BinnedConfig::FAST).build(&input).unwrap(), &input.cost);
-    let s128 = sah(&BinnedBuilder::new(BinnedConfig::FINE).build(&input).unwrap(), &input.cost);
+    let s8 = sah(
+        &BinnedBuilder::new(BinnedConfig::FAST)
+            .build(&input)
+            .unwrap(),
+        &input.cost,
+    );
+    let s128 = sah(
+        &BinnedBuilder::new(BinnedConfig::FINE)
+            .build(&input)
+            .unwrap(),
+        &input.cost,
+    );
     assert!(s128 < s8 * 1.02, "128 bins {s128} vs 8 bins {s8}");
     for name in ["binned", "binned-8", "binned-128"] {
         let b = registry::by_name(name).expect(name);

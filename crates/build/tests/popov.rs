@@ -36,6 +36,7 @@ fn presets_valid_deterministic_bounded() {
     let b = PopovBuilder::new(PopovConfig {
         depth: 3,
         k: 2,
+        per_axis: true,
         frontier: Frontier::Temporary,
         greedy_below: 0,
         max_leaf_size: 3,
@@ -53,6 +54,7 @@ fn depth_one_is_sweep() {
             let p = PopovBuilder::new(PopovConfig {
                 depth: 1,
                 k: 3,
+                per_axis: false,
                 frontier: Frontier::Leaf,
                 greedy_below: 0,
                 max_leaf_size: max_leaf,
@@ -67,16 +69,17 @@ fn depth_one_is_sweep() {
 #[test]
 fn hybrid_depth_one_is_tsah_top_k() {
     for (what, tris) in inputs() {
-        for (k, greedy_below) in [(1, 0), (4, 16)] {
+        for (k, per_axis, greedy_below) in [(1, false, 0), (4, false, 16), (2, true, 8)] {
             let p = PopovBuilder::new(PopovConfig {
                 depth: 1,
                 k,
+                per_axis,
                 frontier: Frontier::Temporary,
                 greedy_below,
                 max_leaf_size: 8,
             });
             let t = TsahBuilder::new(TsahConfig {
-                candidates: Candidates::TopK { k, per_axis: false },
+                candidates: Candidates::TopK { k, per_axis },
                 temporary: Temporary::Sweep,
                 greedy_below,
                 always_include_greedy_best: true,
@@ -110,9 +113,18 @@ fn rejects_bad_configs() {
     let tris = soup(10, 1);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     for c in [
-        PopovConfig { depth: 0, ..PopovConfig::D2 },
-        PopovConfig { k: 0, ..PopovConfig::D2 },
-        PopovConfig { max_leaf_size: 0, ..PopovConfig::D2 },
+        PopovConfig {
+            depth: 0,
+            ..PopovConfig::D2
+        },
+        PopovConfig {
+            k: 0,
+            ..PopovConfig::D2
+        },
+        PopovConfig {
+            max_leaf_size: 0,
+            ..PopovConfig::D2
+        },
     ] {
         assert!(PopovBuilder::new(c).build(&input).is_err());
     }

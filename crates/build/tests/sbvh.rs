@@ -184,7 +184,12 @@ fn sah_below_binned_where_spatial_splits_help() {
     let tris = needs_spatial();
     for cost in [CostModel::AILA, CostModel::UNIT] {
         let input = BuildInput::new(&tris, cost).unwrap();
-        let binned = sah(&BinnedBuilder::new(BinnedConfig::DEFAULT).build(&input).unwrap(), &cost);
+        let binned = sah(
+            &BinnedBuilder::new(BinnedConfig::DEFAULT)
+                .build(&input)
+                .unwrap(),
+            &cost,
+        );
         let sbvh = sah(&build_with(&tris, SbvhConfig::DEFAULT, cost), &cost);
         assert!(sbvh < 0.8 * binned, "sbvh {sbvh} vs binned {binned}");
     }
@@ -328,9 +333,75 @@ fn deterministic_across_thread_counts() {
 fn registry_entry() {
     let b = registry::by_name("sbvh").unwrap();
     assert_eq!(b.name(), "sbvh");
-    let e = registry::entries().into_iter().find(|e| e.name == "sbvh").unwrap();
+    let e = registry::entries()
+        .into_iter()
+        .find(|e| e.name == "sbvh")
+        .unwrap();
     assert!(e.spatial);
     let tris = needs_spatial();
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     b.build(&input).unwrap().validate(&tris).unwrap();
+}
+
+/// Triangles that are flat (or one unit in the last place thick) along an axis, far from the
+/// origin, crossing each other: clipped pieces' boxes must still touch their triangles.
+fn near_flat(n: usize, seed: u64) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(seed, 17);
+    let base = 11.58724f32;
+    let ulp = f32::from_bits(base.to_bits() + 1) - base;
+    (0..n)
+        .map(|i| {
+            let axis = i % 3;
+            let mut p = || {
+                let mut v = rand_point(&mut rng, 0.0, 20.0);
+                v[axis] = base + ulp * rng.below(2) as f32;
+                v + Vec3A::splat(1000.0 * (axis as f32))
+            };
+            Triangle::new(p(), p(), p())
+        })
+        .collect()
+}
+
+/// Long slivers one unit in the last place thick along x, among many tiny triangles, so that
+/// spatial splits cut the slivers into short pieces (as happens in Sponza).
+fn slivers(seed: u64) -> Vec<Triangle> {
+    let mut rng = Pcg32::new(seed, 23);
+    let mut tris = Vec::new();
+    for base in [11.58724f32, 7.300001, 101.7] {
+        let ulp = f32::from_bits(base.to_bits() + 1) - base;
+        for k in 0..10 {
+            let d = k as f32 * 0.05;
+            tris.push(Triangle::new(
+                Vec3A::new(base, 14.783308 - d, 0.081487 + d),
+                Vec3A::new(base, 14.803308 - d, 0.101488 + d),
+                Vec3A::new(base + ulp, 11.76331 - d, 3.181487 + d),
+            ));
+        }
+        for _ in 0..1500 {
+            let c = Vec3A::new(
+                base + rng.range_f32(-0.01, 0.01),
+                rng.range_f32(11.0, 15.0),
+                rng.range_f32(0.0, 3.5),
+            );
+            let s = 0.01;
+            tris.push(Triangle::new(
+                c,
+                c + Vec3A::new(0.0, s, 0.0),
+                c + Vec3A::new(s, 0.0, s),
+            ));
+        }
+    }
+    tris
+}
+
+#[test]
+fn near_flat_triangles_validate() {
+    for seed in 0..2 {
+        let tris = slivers(seed);
+        for config in configs() {
+            build(&tris, config);
+        }
+        let tris = near_flat(1500, seed);
+        build(&tris, SbvhConfig::DEFAULT);
+    }
 }

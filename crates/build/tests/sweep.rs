@@ -55,9 +55,11 @@ fn registered() {
 fn rejects_zero_leaf_size() {
     let tris = soup(10, 1);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    assert!(SweepBuilder::new(SweepConfig::DEFAULT.with_max_leaf_size(0))
-        .build(&input)
-        .is_err());
+    assert!(
+        SweepBuilder::new(SweepConfig::DEFAULT.with_max_leaf_size(0))
+            .build(&input)
+            .is_err()
+    );
 }
 
 fn full_cost(tris: &[Triangle], cost: CostModel, max_leaf: usize) -> f64 {
@@ -82,7 +84,14 @@ fn rel_eq(a: f64, b: f64) -> bool {
 
 #[test]
 fn cost_only_equals_sah_of_built_tree() {
-    for cost in [CostModel::AILA, CostModel::UNIT, CostModel { traversal: 0.3, intersection: 2.5 }] {
+    for cost in [
+        CostModel::AILA,
+        CostModel::UNIT,
+        CostModel {
+            traversal: 0.3,
+            intersection: 2.5,
+        },
+    ] {
         for max_leaf in [1, 4, 8] {
             for (name, tris) in inputs() {
                 if tris.is_empty() {
@@ -142,8 +151,19 @@ fn split_orders_then_cost_equals_builder_on_the_side() {
                 &cost,
             );
             let [a, b, c] = side;
-            let got = sweep_cost(input.bounds(), [a, b, c], &marks, &cost, 8, &mut SweepScratch::new());
-            assert!(rel_eq(expect, got.cost), "axis {axis} pos {pos}: {expect} vs {}", got.cost);
+            let got = sweep_cost(
+                input.bounds(),
+                [a, b, c],
+                &marks,
+                &cost,
+                8,
+                &mut SweepScratch::new(),
+            );
+            assert!(
+                rel_eq(expect, got.cost),
+                "axis {axis} pos {pos}: {expect} vs {}",
+                got.cost
+            );
             let bounds = set
                 .iter()
                 .fold(Aabb::EMPTY, |b, &i| b.union(&input.bounds()[i as usize]));
@@ -215,7 +235,10 @@ fn equals_naive_reference() {
         soup(300, 31),
         clustered(250, 32),
         mesh_like(10, 33),
-        degenerate_cases().into_iter().map(|(_, t)| t).flatten().collect(),
+        degenerate_cases()
+            .into_iter()
+            .flat_map(|(_, t)| t)
+            .collect(),
     ];
     for tris in cases {
         for max_leaf in [1, 3, 8] {
@@ -242,7 +265,11 @@ fn large_soup_timing() {
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let t = std::time::Instant::now();
     let bvh = SweepBuilder::default().build(&input).unwrap();
-    eprintln!("sweep 1M soup: {:?}, sah {}", t.elapsed(), sah(&bvh, &input.cost));
+    eprintln!(
+        "sweep 1M soup: {:?}, sah {}",
+        t.elapsed(),
+        sah(&bvh, &input.cost)
+    );
     bvh.validate(&tris).unwrap();
     let c = full_cost(&tris, input.cost, 8);
     assert!(rel_eq(c, sah(&bvh, &input.cost)));

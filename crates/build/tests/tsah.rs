@@ -47,13 +47,19 @@ fn presets_valid_deterministic_bounded() {
 fn other_configurations_valid_deterministic_bounded() {
     let configs = [
         TsahConfig {
-            candidates: Candidates::TopK { k: 3, per_axis: true },
+            candidates: Candidates::TopK {
+                k: 3,
+                per_axis: true,
+            },
             greedy_below: 0,
             max_leaf_size: 2,
             ..TsahConfig::TOP_K
         },
         TsahConfig {
-            candidates: Candidates::TopK { k: 2, per_axis: false },
+            candidates: Candidates::TopK {
+                k: 2,
+                per_axis: false,
+            },
             temporary: Temporary::Binned { bins: 4 },
             always_include_greedy_best: false,
             greedy_below: 4,
@@ -95,10 +101,25 @@ fn rejects_bad_configs() {
     let tris = soup(10, 1);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let bad = [
-        TsahConfig { max_leaf_size: 0, ..TsahConfig::TOP_K },
-        TsahConfig { candidates: Candidates::TopK { k: 0, per_axis: false }, ..TsahConfig::TOP_K },
-        TsahConfig { candidates: Candidates::Binned { bins_per_axis: 1 }, ..TsahConfig::TOP_K },
-        TsahConfig { temporary: Temporary::Binned { bins: 1 }, ..TsahConfig::TOP_K },
+        TsahConfig {
+            max_leaf_size: 0,
+            ..TsahConfig::TOP_K
+        },
+        TsahConfig {
+            candidates: Candidates::TopK {
+                k: 0,
+                per_axis: false,
+            },
+            ..TsahConfig::TOP_K
+        },
+        TsahConfig {
+            candidates: Candidates::Binned { bins_per_axis: 1 },
+            ..TsahConfig::TOP_K
+        },
+        TsahConfig {
+            temporary: Temporary::Binned { bins: 1 },
+            ..TsahConfig::TOP_K
+        },
     ];
     for c in bad {
         assert!(TsahBuilder::new(c).build(&input).is_err(), "{c:?}");
@@ -113,12 +134,27 @@ fn sah_never_above_sweep() {
         ("soup", soup(2500, 41)),
         ("clustered", clustered(2500, 42)),
         ("mesh", mesh_like(32, 43)),
-        ("degenerate", degenerate_cases().into_iter().flat_map(|(_, t)| t).collect()),
+        (
+            "degenerate",
+            degenerate_cases()
+                .into_iter()
+                .flat_map(|(_, t)| t)
+                .collect(),
+        ),
     ];
     let candidates = [
-        Candidates::TopK { k: 1, per_axis: false },
-        Candidates::TopK { k: 4, per_axis: false },
-        Candidates::TopK { k: 2, per_axis: true },
+        Candidates::TopK {
+            k: 1,
+            per_axis: false,
+        },
+        Candidates::TopK {
+            k: 4,
+            per_axis: false,
+        },
+        Candidates::TopK {
+            k: 2,
+            per_axis: true,
+        },
         Candidates::Binned { bins_per_axis: 4 },
         Candidates::Binned { bins_per_axis: 12 },
     ];
@@ -161,14 +197,19 @@ struct Ref<'a> {
 
 impl Ref<'_> {
     fn union(&self, s: &[u32]) -> Aabb {
-        s.iter()
-            .fold(Aabb::EMPTY, |b, &i| b.union(&self.input.bounds()[i as usize]))
+        s.iter().fold(Aabb::EMPTY, |b, &i| {
+            b.union(&self.input.bounds()[i as usize])
+        })
     }
 
     fn sorted(&self, ids: &[u32], axis: usize) -> Vec<u32> {
         let c = self.input.centroids();
         let mut s = ids.to_vec();
-        s.sort_by(|&a, &b| c[a as usize][axis].total_cmp(&c[b as usize][axis]).then(a.cmp(&b)));
+        s.sort_by(|&a, &b| {
+            c[a as usize][axis]
+                .total_cmp(&c[b as usize][axis])
+                .then(a.cmp(&b))
+        });
         s
     }
 
@@ -261,20 +302,38 @@ fn exhaustive_equals_brute_force_reference() {
     let mut cases: Vec<Vec<Triangle>> = (0..6).map(|s| soup(40, 100 + s)).collect();
     cases.push(clustered(40, 7));
     cases.push(mesh_like(4, 8));
-    cases.push(degenerate_cases().into_iter().flat_map(|(_, t)| t).take(45).collect());
+    cases.push(
+        degenerate_cases()
+            .into_iter()
+            .flat_map(|(_, t)| t)
+            .take(45)
+            .collect(),
+    );
     let mut differs = 0;
-    for cost in [CostModel::AILA, CostModel { traversal: 0.5, intersection: 1.5 }] {
+    for cost in [
+        CostModel::AILA,
+        CostModel {
+            traversal: 0.5,
+            intersection: 1.5,
+        },
+    ] {
         for tris in &cases {
             for max_leaf in [1, 4] {
                 let input = BuildInput::new(tris, cost).unwrap();
-                let reference = Ref { input: &input, max_leaf };
+                let reference = Ref {
+                    input: &input,
+                    max_leaf,
+                };
                 let ids: Vec<u32> = (0..tris.len() as u32).collect();
                 let mut expect = Vec::new();
                 reference.tsah(&ids, &mut expect);
                 for l in &mut expect {
                     l.sort_unstable();
                 }
-                let config = TsahConfig { max_leaf_size: max_leaf, ..TsahConfig::EXHAUSTIVE };
+                let config = TsahConfig {
+                    max_leaf_size: max_leaf,
+                    ..TsahConfig::EXHAUSTIVE
+                };
                 let bvh = TsahBuilder::new(config).build(&input).unwrap();
                 bvh.validate(tris).unwrap();
                 assert_eq!(shape(&bvh).1, expect, "leaf {max_leaf}, {cost:?}");
@@ -293,5 +352,18 @@ fn exhaustive_equals_brute_force_reference() {
     }
     // The comparison is not vacuous: most trees differ from the greedy ones.
     assert!(differs >= 10, "only {differs} trees differ from sweep");
-    eprintln!("{differs} of {} exhaustive trees differ from sweep", cases.len() * 4);
+    eprintln!(
+        "{differs} of {} exhaustive trees differ from sweep",
+        cases.len() * 4
+    );
+}
+
+/// Inputs large enough that candidates are rated in parallel and both sides of a candidate
+/// are built on two tasks: still the same tree with 1 and 2 threads.
+#[test]
+fn parallel_rating_paths_are_deterministic() {
+    let tris = soup(9000, 61);
+    for config in [TsahConfig::TOP_K, TsahConfig::BINNED] {
+        check_builder(&TsahBuilder::new(config), &tris, 8, "soup-9000");
+    }
 }

@@ -22,7 +22,11 @@ fn scenes_dir() -> PathBuf {
     if let Ok(d) = std::env::var("SAHARA_SHARED_SCENES") {
         return d.into();
     }
-    for d in ["/work/shared/scenes", "../shared/scenes", "../../../shared/scenes"] {
+    for d in [
+        "/work/shared/scenes",
+        "../shared/scenes",
+        "../../../shared/scenes",
+    ] {
         if Path::new(d).is_dir() {
             return d.into();
         }
@@ -85,8 +89,21 @@ fn list(var: &str, default: &str) -> Vec<String> {
         .collect()
 }
 
+/// CPU time of the process so far (all threads), in milliseconds, from `/proc/self/stat`.
+fn cpu_ms() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    let after = &stat[stat.rfind(')').map_or(0, |i| i + 2)..];
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 =
+        f[11].parse::<f64>().unwrap_or(f64::NAN) + f[12].parse::<f64>().unwrap_or(f64::NAN);
+    ticks * 10.0
+}
+
 struct Row {
     ms: f64,
+    cpu_ms: f64,
     sah: f64,
     epo: Option<f64>,
     leaves: usize,
@@ -94,12 +111,15 @@ struct Row {
 
 fn measure(builder: &dyn Builder, tris: &[Triangle], epo: bool) -> (Row, Bvh) {
     let input = BuildInput::new(tris, CostModel::default()).unwrap();
+    let c0 = cpu_ms();
     let t = Instant::now();
     let bvh = builder.build(&input).unwrap();
     let ms = t.elapsed().as_secs_f64() * 1e3;
+    let cpu_ms = cpu_ms() - c0;
     bvh.validate(tris).unwrap();
     let row = Row {
         ms,
+        cpu_ms,
         sah: sah(&bvh, &input.cost),
         epo: epo.then(|| sahara_metrics::epo(&bvh, tris, &input.cost)),
         leaves: bvh.nodes.iter().filter(|n| n.is_leaf()).count(),
@@ -108,15 +128,17 @@ fn measure(builder: &dyn Builder, tris: &[Triangle], epo: bool) -> (Row, Bvh) {
 }
 
 fn print_row(scene: &str, n: usize, name: &str, r: &Row, base: Option<&Row>) {
-    let rel = base.map_or(String::new(), |b| format!("{:+.2}%", 100.0 * (r.sah / b.sah - 1.0)));
+    let rel = base.map_or(String::new(), |b| {
+        format!("{:+.2}%", 100.0 * (r.sah / b.sah - 1.0))
+    });
     let epo = match (r.epo, base.and_then(|b| b.epo)) {
         (Some(e), Some(b)) => format!("{e:.3} ({:+.2}%)", 100.0 * (e / b - 1.0)),
         (Some(e), None) => format!("{e:.3}"),
         _ => "-".into(),
     };
     eprintln!(
-        "| {scene} | {n} | {name} | {:.0} | {:.3} | {rel} | {epo} | {} |",
-        r.ms, r.sah, r.leaves
+        "| {scene} | {n} | {name} | {:.0} | {:.0} | {:.3} | {rel} | {epo} | {} |",
+        r.ms, r.cpu_ms, r.sah, r.leaves
     );
 }
 
@@ -128,10 +150,15 @@ fn measure_presets() {
         "TSAH_SCENES",
         "sibenik,sponza_dabrovic,stanford_bunny,teapot_in_stadium",
     );
-    let builders = list("TSAH_BUILDERS", "sweep,tsah-topk,tsah-binned,popov-d2,hybrid");
+    let builders = list(
+        "TSAH_BUILDERS",
+        "sweep,tsah-topk,tsah-binned,popov-d2,hybrid",
+    );
     let epo = std::env::var("TSAH_EPO").is_ok();
-    eprintln!("| scene | triangles | builder | build ms | SAH | vs sweep | EPO | leaves |");
-    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|");
+    eprintln!(
+        "| scene | triangles | builder | build ms | CPU ms | SAH | vs sweep | EPO | leaves |"
+    );
+    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
     for scene in &scenes {
         let Some(tris) = load(scene) else {
             eprintln!("scene {scene} not found in {}", scenes_dir().display());
@@ -150,43 +177,69 @@ fn measure_presets() {
 }
 
 /// The knobs of the temporary-subtree builder (k, per-axis selection, greedy threshold,
-/// binned candidates and temporaries) on the shared scenes and on procedural ones.
+/// binned candidates and temporaries) on the shared scenes and on procedural ones
+/// (`TSAH_KNOBS=wide` for more configurations, `TSAH_GREEDY_BELOW` for the threshold).
 #[test]
 #[ignore]
 fn measure_knobs() {
-    let scenes = list("TSAH_SCENES", "sibenik,stanford_bunny,teapot_in_stadium,soup,mesh");
+    let scenes = list(
+        "TSAH_SCENES",
+        "sibenik,stanford_bunny,teapot_in_stadium,soup,mesh",
+    );
     let epo = std::env::var("TSAH_EPO").is_ok();
-    let base_cfg = TsahConfig::TOP_K;
+    let g = std::env::var("TSAH_GREEDY_BELOW").map_or(8, |v| v.parse().unwrap());
+    let base_cfg = TsahConfig {
+        greedy_below: g,
+        ..TsahConfig::TOP_K
+    };
+    let top = |k, per_axis| TsahConfig {
+        candidates: Candidates::TopK { k, per_axis },
+        ..base_cfg
+    };
+    let binned = |bins_per_axis, temporary| TsahConfig {
+        candidates: Candidates::Binned { bins_per_axis },
+        temporary,
+        ..base_cfg
+    };
     let mut configs: Vec<(String, TsahConfig)> = Vec::new();
-    for k in [1, 2, 4, 8, 16] {
+    if std::env::var("TSAH_KNOBS").as_deref() == Ok("wide") {
+        for k in [1, 2, 4, 8, 16] {
+            configs.push((format!("top-{k}"), top(k, false)));
+        }
+        for gb in [0, 8, 32, 64, 256] {
+            configs.push((
+                format!("top-1/axis greedy<={gb}"),
+                TsahConfig {
+                    greedy_below: gb,
+                    ..top(1, true)
+                },
+            ));
+        }
+        for (bins, tbins) in [(2, 8), (3, 8), (4, 8), (4, 16), (8, 16)] {
+            configs.push((
+                format!("binned {bins}, binned temps {tbins}"),
+                binned(bins, Temporary::Binned { bins: tbins }),
+            ));
+        }
+    }
+    configs.push(("top-4".into(), top(4, false)));
+    for k in [1, 2, 3] {
+        configs.push((format!("top-{k}/axis"), top(k, true)));
+    }
+    for bins in [2, 3, 4] {
         configs.push((
-            format!("top-{k}"),
-            TsahConfig { candidates: Candidates::TopK { k, per_axis: false }, ..base_cfg },
+            format!("binned {bins}, sweep temps"),
+            binned(bins, Temporary::Sweep),
         ));
     }
-    configs.push((
-        "top-2/axis".into(),
-        TsahConfig { candidates: Candidates::TopK { k: 2, per_axis: true }, ..base_cfg },
-    ));
-    for g in [8, 64, 256] {
-        configs.push((format!("top-4 greedy<={g}"), TsahConfig { greedy_below: g, ..base_cfg }));
-    }
-    for (bins, tbins) in [(4, 8), (4, 16), (8, 16), (4, 32)] {
+    for (bins, tbins) in [(2, 8), (2, 16), (4, 8)] {
         configs.push((
-            format!("binned {bins}/{tbins}"),
-            TsahConfig {
-                candidates: Candidates::Binned { bins_per_axis: bins },
-                temporary: Temporary::Binned { bins: tbins },
-                ..base_cfg
-            },
+            format!("binned {bins}, binned temps {tbins}"),
+            binned(bins, Temporary::Binned { bins: tbins }),
         ));
     }
-    configs.push((
-        "binned 4 cands, sweep temps".into(),
-        TsahConfig { candidates: Candidates::Binned { bins_per_axis: 4 }, ..base_cfg },
-    ));
-    eprintln!("| scene | triangles | config | build ms | SAH | vs sweep | EPO | leaves |");
-    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|");
+    eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
+    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
     for scene in &scenes {
         let tris = match scene.as_str() {
             "soup" => tsah_support::soup(100_000, 5),
@@ -241,4 +294,55 @@ fn obj_reader_reads_polygons() {
     std::env::remove_var("SAHARA_SHARED_SCENES");
     assert_eq!(t.len(), 3);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Arbitrary configurations, as a JSON array of `TsahConfig` in `TSAH_CONFIGS`, for example
+/// `[{"candidates":{"Binned":{"bins_per_axis":2}},"temporary":"Sweep","greedy_below":32,
+/// "always_include_greedy_best":true,"max_leaf_size":8}]`.
+#[test]
+#[ignore]
+fn measure_configs() {
+    let Ok(json) = std::env::var("TSAH_CONFIGS") else {
+        eprintln!("set TSAH_CONFIGS");
+        return;
+    };
+    let configs: Vec<TsahConfig> = serde_json::from_str(&json).unwrap();
+    let scenes = list("TSAH_SCENES", "sibenik,sponza_dabrovic");
+    let epo = std::env::var("TSAH_EPO").is_ok();
+    eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
+    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    for scene in &scenes {
+        let Some(tris) = load(scene) else { continue };
+        let (base, _) = measure(registry::by_name("sweep").unwrap().as_ref(), &tris, epo);
+        print_row(scene, tris.len(), "sweep", &base, None);
+        for cfg in &configs {
+            let (row, _) = measure(&TsahBuilder::new(*cfg), &tris, epo);
+            print_row(scene, tris.len(), &cfg.describe(), &row, Some(&base));
+        }
+    }
+}
+
+/// Look-ahead configurations, as a JSON array of `PopovConfig` in `POPOV_CONFIGS`.
+#[test]
+#[ignore]
+fn measure_popov_configs() {
+    let Ok(json) = std::env::var("POPOV_CONFIGS") else {
+        eprintln!("set POPOV_CONFIGS");
+        return;
+    };
+    let configs: Vec<sahara_build::popov::PopovConfig> = serde_json::from_str(&json).unwrap();
+    let scenes = list("TSAH_SCENES", "sibenik,sponza_dabrovic");
+    let epo = std::env::var("TSAH_EPO").is_ok();
+    eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
+    eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    for scene in &scenes {
+        let Some(tris) = load(scene) else { continue };
+        let (base, _) = measure(registry::by_name("sweep").unwrap().as_ref(), &tris, epo);
+        print_row(scene, tris.len(), "sweep", &base, None);
+        for cfg in &configs {
+            let b = sahara_build::popov::PopovBuilder::new(*cfg);
+            let (row, _) = measure(&b, &tris, epo);
+            print_row(scene, tris.len(), &cfg.describe(), &row, Some(&base));
+        }
+    }
 }

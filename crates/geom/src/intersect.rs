@@ -149,9 +149,12 @@ pub fn intersect_ray_triangle(ray: &Ray, tri: &Triangle) -> Option<TriangleHit> 
 /// Robust slab test (Ize 2013). Returns the entry distance when the ray's `[tmin, tmax]`
 /// overlaps the box, using `inv_direction` for the reciprocal direction.
 ///
-/// Far distances are scaled by [`ROBUST_FAR_SCALE`] so that a ray that really enters the box
-/// is never rejected by rounding. NaN slab distances (a zero direction component with the origin
-/// on a slab plane) are ignored, which keeps the test conservative.
+/// Far distances are scaled away from zero by `2γ(3)` ([`ROBUST_FAR_SCALE`] for positive
+/// distances, `1 - 2γ(3)` for negative ones, which matter when `tmin < 0`) so that a ray
+/// that really enters the box is never rejected by rounding. The near and far planes of each
+/// axis are chosen by the sign of the reciprocal direction, so a zero direction component with
+/// the origin exactly on a slab plane (`0 · ∞ = NaN`) leaves that slab unconstrained on both
+/// the minimum and the maximum plane, which keeps the test conservative.
 #[inline]
 pub fn intersect_aabb(
     origin: Vec3A,
@@ -160,11 +163,18 @@ pub fn intersect_aabb(
     tmax: f32,
     aabb: &Aabb,
 ) -> Option<f32> {
-    let t0 = (aabb.min - origin) * inv_direction;
-    let t1 = (aabb.max - origin) * inv_direction;
-    let tnear = t0.min(t1);
-    let tfar = t0.max(t1) * ROBUST_FAR_SCALE;
-    // f32::max / f32::min return the non-NaN operand.
+    let negative = inv_direction.cmplt(Vec3A::ZERO);
+    let lo = Vec3A::select(negative, aabb.max, aabb.min);
+    let hi = Vec3A::select(negative, aabb.min, aabb.max);
+    let tnear = (lo - origin) * inv_direction;
+    let tf = (hi - origin) * inv_direction;
+    let scale = Vec3A::select(
+        tf.cmplt(Vec3A::ZERO),
+        Vec3A::splat(2.0 - ROBUST_FAR_SCALE),
+        Vec3A::splat(ROBUST_FAR_SCALE),
+    );
+    let tfar = tf * scale;
+    // f32::max / f32::min return the non-NaN operand: a NaN slab distance is ignored.
     let near = tmin.max(tnear.x).max(tnear.y).max(tnear.z);
     let far = tmax.min(tfar.x).min(tfar.y).min(tfar.z);
     if near <= far {
@@ -172,6 +182,15 @@ pub fn intersect_aabb(
     } else {
         None
     }
+}
+
+/// The distance up to which boxes and triangles must still be tested once a hit at `t` is
+/// known: `t` widened by a relative `2^-16`, so that a hit at exactly the same distance (a tie,
+/// which the lowest triangle index wins) or one rounding step nearer is never culled by the
+/// rounded comparisons of the box and triangle tests.
+#[inline]
+pub fn cull_distance(t: f32) -> f32 {
+    t + t.abs() * (1.0 / 65536.0)
 }
 
 #[cfg(test)]
@@ -239,6 +258,15 @@ mod tests {
         // Axis-parallel ray lying exactly in a face plane: conservative hit.
         let r = Ray::new(Vec3A::new(1.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
         assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        // ... and in the minimum plane too (0 * inf = NaN must be ignored on both sides).
+        let r = Ray::new(Vec3A::new(-1.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
+        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        let r = Ray::new(Vec3A::new(0.0, -1.0, -5.0), Vec3A::new(-0.0, 0.0, 1.0), 0.0, 100.0);
+        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        // A flat box behind the origin is found by a ray with tmin < 0.
+        let flat_z = Aabb::new(Vec3A::new(-1.0, -1.0, -3.0), Vec3A::new(1.0, 1.0, -3.0));
+        let r = Ray::new(Vec3A::new(0.1, 0.2, 0.0), Vec3A::new(0.0, 0.0, 1.0), -10.0, 10.0);
+        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &flat_z).is_some());
         // Flat box (zero thickness) is still hit.
         let flat = Aabb::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, 1.0, 0.0));
         let r = Ray::new(Vec3A::new(0.3, 0.2, -5.0), Vec3A::new(0.0, 0.0, 1.0), 0.0, 100.0);

@@ -83,4 +83,4 @@ pub use rays::{
 pub use render::{colour_ramp, heat_map, shade, HeatMap, RgbImage, Shading, MISS_COLOUR};
 pub use sahara_traverse::{Hit, WorkCounters};
 pub use timing::{measure, mrays_per_s, Throughput, Timing};
-pub use tracer::{BruteTracer, Bvh2Tracer, Tracer};
+pub use tracer::{BruteTracer, Bvh2Tracer, Tracer, WideTracer};

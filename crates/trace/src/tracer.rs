@@ -133,3 +133,50 @@ impl Tracer for BruteTracer<'_> {
         sahara_traverse::brute::any_hit(self.tris, ray)
     }
 }
+
+/// A wide BVH (4- or 8-wide, collapsed from a binary [`Bvh`]) traced by the SIMD kernels of
+/// `sahara_traverse::wide`, with the CPU's best backend chosen at run time.
+#[derive(Clone, Debug)]
+pub struct WideTracer<const W: usize> {
+    /// The collapsed tree (it owns a copy of the triangle data it needs).
+    pub wide: sahara_traverse::WideBvh<W>,
+}
+
+impl<const W: usize> WideTracer<W> {
+    /// Collapses `bvh` (built over `tris`) into a `W`-wide tree.
+    pub fn new(bvh: &Bvh, tris: &[Triangle]) -> Self {
+        Self {
+            wide: sahara_traverse::WideBvh::<W>::from_bvh(bvh, tris),
+        }
+    }
+}
+
+impl<const W: usize> Tracer for WideTracer<W> {
+    fn name(&self) -> &str {
+        if W == 4 {
+            "bvh4"
+        } else {
+            "bvh8"
+        }
+    }
+
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> Hit {
+        self.wide.closest_hit(ray, stats)
+    }
+
+    #[inline]
+    fn any_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> bool {
+        self.wide.any_hit(ray, stats)
+    }
+
+    #[inline]
+    fn closest_hit_fast(&self, ray: &Ray) -> Hit {
+        self.wide.closest_hit(ray, &mut NoStats)
+    }
+
+    #[inline]
+    fn any_hit_fast(&self, ray: &Ray) -> bool {
+        self.wide.any_hit(ray, &mut NoStats)
+    }
+}

@@ -3,7 +3,7 @@
 use crate::{Hit, NodeStack, TraversalStats};
 use sahara_bvh::Bvh;
 use sahara_geom::{
-    intersect::{intersect_aabb, intersect_triangle},
+    intersect::{cull_distance, intersect_aabb, intersect_triangle},
     Ray, Triangle,
 };
 
@@ -33,7 +33,8 @@ pub fn closest_hit<S: TraversalStats>(
             stats.leaf();
             stats.triangles(node.count);
             for &p in bvh.leaf_prims(node) {
-                if let Some(h) = intersect_triangle(&w, &tris[p as usize], ray.tmin, best.t.min(ray.tmax)) {
+                let limit = cull_distance(best.t).min(ray.tmax);
+                if let Some(h) = intersect_triangle(&w, &tris[p as usize], ray.tmin, limit) {
                     if best.is_improved_by(h.t, p) {
                         best = Hit { t: h.t, prim: p, u: h.u, v: h.v };
                     }
@@ -42,7 +43,7 @@ pub fn closest_hit<S: TraversalStats>(
         } else {
             stats.inner();
             let (l, r) = (cur + 1, node.index as usize);
-            let tmax = best.t.min(ray.tmax);
+            let tmax = cull_distance(best.t).min(ray.tmax);
             let hl = intersect_aabb(o, inv, ray.tmin, tmax, &nodes[l].bounds());
             let hr = intersect_aabb(o, inv, ray.tmin, tmax, &nodes[r].bounds());
             match (hl, hr) {
@@ -69,7 +70,8 @@ pub fn closest_hit<S: TraversalStats>(
                 None => return best,
                 Some(n) => {
                     let n = n as usize;
-                    if intersect_aabb(o, inv, ray.tmin, best.t.min(ray.tmax), &nodes[n].bounds()).is_some() {
+                    let tmax = cull_distance(best.t).min(ray.tmax);
+                    if intersect_aabb(o, inv, ray.tmin, tmax, &nodes[n].bounds()).is_some() {
                         cur = n;
                         break;
                     }

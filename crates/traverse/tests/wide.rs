@@ -12,7 +12,10 @@ use sahara_traverse::{
 use wide_common::*;
 
 fn backends() -> Vec<Backend> {
-    Backend::ALL.into_iter().filter(|b| b.is_available()).collect()
+    Backend::ALL
+        .into_iter()
+        .filter(|b| b.is_available())
+        .collect()
 }
 
 fn bits(h: &Hit) -> (u32, u32, u32, u32) {
@@ -144,7 +147,10 @@ fn empty_and_single_leaf_trees() {
     let ray = Ray::new(Vec3A::new(0.0, 0.0, -5.0), Vec3A::Z, 0.0, f32::INFINITY);
     let empty = Bvh::empty();
     for b in Backend::ALL {
-        assert_eq!(Bvh4::from_bvh(&empty, &[]).closest_hit_with(b, &ray, &mut NoStats), Hit::MISS);
+        assert_eq!(
+            Bvh4::from_bvh(&empty, &[]).closest_hit_with(b, &ray, &mut NoStats),
+            Hit::MISS
+        );
         assert!(!Bvh8::from_bvh(&empty, &[]).any_hit_with(b, &ray, &mut NoStats));
     }
     // One leaf holding everything (more than 32 triangles: becomes a small subtree).
@@ -167,7 +173,10 @@ fn random_soups_agree() {
             let bvh = median_bvh(&tris, leaf);
             bvh.validate(&tris).unwrap();
             let hits = check_all(&bvh, &tris, &rays, &format!("soup {n}, median leaf {leaf}"));
-            assert!(hits > rays.len() / 20, "too few hits to be a meaningful test: {hits}");
+            assert!(
+                hits > rays.len() / 20,
+                "too few hits to be a meaningful test: {hits}"
+            );
         }
         let bvh = sah_bvh(&tris, 8);
         bvh.validate(&tris).unwrap();
@@ -179,7 +188,11 @@ fn random_soups_agree() {
 fn sphere_in_box_agrees_and_is_watertight() {
     let (tris, n_sphere) = sphere_in_box(24, 40, 1.0, 2.0, 6);
     let b = scene_box(&tris);
-    for bvh in [median_bvh(&tris, 3), sah_bvh(&tris, 4), spatial_bvh(&tris, 4)] {
+    for bvh in [
+        median_bvh(&tris, 3),
+        sah_bvh(&tris, 4),
+        spatial_bvh(&tris, 4),
+    ] {
         bvh.validate(&tris).unwrap();
         // From inside the sphere every ray hits the sphere: no leak through shared edges.
         let inside = rays_from_inside(1.0, 4000, 3);
@@ -189,7 +202,10 @@ fn sphere_in_box_agrees_and_is_watertight() {
         for ray in &inside {
             for b in backends() {
                 let h = w8.closest_hit_with(b, ray, &mut NoStats);
-                assert!(h.is_hit() && (h.prim as usize) < n_sphere, "{ray:?} leaked: {h:?}");
+                assert!(
+                    h.is_hit() && (h.prim as usize) < n_sphere,
+                    "{ray:?} leaked: {h:?}"
+                );
                 assert!(w4.any_hit_with(b, ray, &mut NoStats));
             }
         }
@@ -197,16 +213,33 @@ fn sphere_in_box_agrees_and_is_watertight() {
         let mut r = Pcg32::new(9, 9);
         let between: Vec<Ray> = (0..2000)
             .map(|_| {
-                let o = Vec3A::new(r.range_f32(-1.9, 1.9), r.range_f32(-1.9, 1.9), r.range_f32(-1.9, 1.9));
+                let o = Vec3A::new(
+                    r.range_f32(-1.9, 1.9),
+                    r.range_f32(-1.9, 1.9),
+                    r.range_f32(-1.9, 1.9),
+                );
                 Ray::new(o, unit_dir(&mut r), 0.0, f32::INFINITY)
             })
             .collect();
         check_all(&bvh, &tris, &between, "inside the box");
         for ray in &between {
-            assert!(w8.closest_hit(ray, &mut NoStats).is_hit(), "{ray:?} leaked out of the box");
+            assert!(
+                w8.closest_hit(ray, &mut NoStats).is_hit(),
+                "{ray:?} leaked out of the box"
+            );
         }
-        check_all(&bvh, &tris, &random_rays(&b, 3000, 4), "sphere in box, random rays");
-        check_all(&bvh, &tris, &vertex_and_edge_rays(&tris, &b, 3000, 5), "sphere in box, vertex/edge rays");
+        check_all(
+            &bvh,
+            &tris,
+            &random_rays(&b, 3000, 4),
+            "sphere in box, random rays",
+        );
+        check_all(
+            &bvh,
+            &tris,
+            &vertex_and_edge_rays(&tris, &b, 3000, 5),
+            "sphere in box, vertex/edge rays",
+        );
     }
 }
 
@@ -215,7 +248,11 @@ fn vertex_and_edge_rays_agree() {
     let tris = random_soup(500, 3);
     let b = scene_box(&tris);
     let rays = vertex_and_edge_rays(&tris, &b, 6000, 6);
-    for bvh in [median_bvh(&tris, 1), median_bvh(&tris, 6), sah_bvh(&tris, 4)] {
+    for bvh in [
+        median_bvh(&tris, 1),
+        median_bvh(&tris, 6),
+        sah_bvh(&tris, 4),
+    ] {
         check_all(&bvh, &tris, &rays, "soup, vertex/edge rays");
     }
 }
@@ -229,9 +266,17 @@ fn spatial_split_trees_agree() {
         let bvh = spatial_bvh(&tris, leaf);
         bvh.validate(&tris).unwrap();
         let dup = bvh.prim_indices.len() as f32 / tris.len() as f32;
-        assert!(dup > 1.2, "the spatial builder should duplicate references ({dup})");
+        assert!(
+            dup > 1.2,
+            "the spatial builder should duplicate references ({dup})"
+        );
         check_all(&bvh, &tris, &rays, &format!("spatial, leaf {leaf}"));
-        check_all(&bvh, &tris, &vertex_and_edge_rays(&tris, &b, 2000, 9), "spatial, vertex/edge rays");
+        check_all(
+            &bvh,
+            &tris,
+            &vertex_and_edge_rays(&tris, &b, 2000, 9),
+            "spatial, vertex/edge rays",
+        );
     }
 }
 
@@ -240,7 +285,11 @@ fn adversarial_rays_agree() {
     let (sphere, _) = sphere_in_box(12, 16, 1.0, 2.0, 3);
     for tris in [random_soup(600, 5), sphere] {
         let b = scene_box(&tris);
-        for bvh in [median_bvh(&tris, 2), sah_bvh(&tris, 4), spatial_bvh(&tris, 4)] {
+        for bvh in [
+            median_bvh(&tris, 2),
+            sah_bvh(&tris, 4),
+            spatial_bvh(&tris, 4),
+        ] {
             let rays = adversarial_rays(&b, 10);
             check_all(&bvh, &tris, &rays, "adversarial rays");
             let w = Bvh8::from_bvh(&bvh, &tris);
@@ -258,7 +307,11 @@ fn adversarial_rays_agree() {
 fn grazing_rays_agree() {
     let (sphere, _) = sphere_in_box(16, 24, 1.0, 2.0, 4);
     for tris in [random_soup(600, 6), sphere] {
-        for bvh in [median_bvh(&tris, 2), sah_bvh(&tris, 4), spatial_bvh(&tris, 4)] {
+        for bvh in [
+            median_bvh(&tris, 2),
+            sah_bvh(&tris, 4),
+            spatial_bvh(&tris, 4),
+        ] {
             let rays = grazing_rays(&bvh, 4000, 11);
             check_all(&bvh, &tris, &rays, "grazing rays");
         }
@@ -285,7 +338,11 @@ fn packet_test_is_bit_exact() {
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0)); // degenerate
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO));
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y));
-    tris.push(Triangle::new(Vec3A::new(1e-20, 0.0, 0.0), Vec3A::new(0.0, 1e-20, 0.0), Vec3A::new(0.0, 0.0, 1e-20)));
+    tris.push(Triangle::new(
+        Vec3A::new(1e-20, 0.0, 0.0),
+        Vec3A::new(0.0, 1e-20, 0.0),
+        Vec3A::new(0.0, 0.0, 1e-20),
+    ));
     for tri in &tris {
         let one = [*tri];
         let bvh = median_bvh(&one, 1);
@@ -298,12 +355,30 @@ fn packet_test_is_bit_exact() {
                 _ => tri.centroid() + unit_dir(&mut r) * 0.05,
             };
             let o = target + unit_dir(&mut r) * r.range_f32(0.01, 3.0);
-            let ray = Ray::new(o, target - o, 0.0, if k % 7 == 0 { 0.999 } else { f32::INFINITY });
+            let ray = Ray::new(
+                o,
+                target - o,
+                0.0,
+                if k % 7 == 0 { 0.999 } else { f32::INFINITY },
+            );
             let want = intersect_triangle(&ray.watertight(), tri, ray.tmin, ray.tmax);
-            let want = want.map_or(Hit::MISS, |h| Hit { t: h.t, prim: 0, u: h.u, v: h.v });
+            let want = want.map_or(Hit::MISS, |h| Hit {
+                t: h.t,
+                prim: 0,
+                u: h.u,
+                v: h.v,
+            });
             for b in backends() {
-                assert_eq!(bits(&w4.closest_hit_with(b, &ray, &mut NoStats)), bits(&want), "{tri:?} {ray:?} {b}");
-                assert_eq!(bits(&w8.closest_hit_with(b, &ray, &mut NoStats)), bits(&want), "{tri:?} {ray:?} {b}");
+                assert_eq!(
+                    bits(&w4.closest_hit_with(b, &ray, &mut NoStats)),
+                    bits(&want),
+                    "{tri:?} {ray:?} {b}"
+                );
+                assert_eq!(
+                    bits(&w8.closest_hit_with(b, &ray, &mut NoStats)),
+                    bits(&want),
+                    "{tri:?} {ray:?} {b}"
+                );
                 assert_eq!(w8.any_hit_with(b, &ray, &mut NoStats), want.is_hit());
             }
         }
@@ -314,11 +389,19 @@ fn packet_test_is_bit_exact() {
 fn original_indices_and_shared_leaves() {
     // Triangles stacked along z (same footprint): the nearest wins; duplicates at the same
     // distance report the lowest index, whatever the leaf layout.
-    let base = Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0));
+    let base = Triangle::new(
+        Vec3A::new(-1.0, -1.0, 0.0),
+        Vec3A::new(1.0, -1.0, 0.0),
+        Vec3A::new(0.0, 1.0, 0.0),
+    );
     let mut tris = Vec::new();
     for i in 0..50 {
         let dz = Vec3A::new(0.0, 0.0, (49 - i / 2) as f32);
-        tris.push(Triangle::new(base.v[0] + dz, base.v[1] + dz, base.v[2] + dz));
+        tris.push(Triangle::new(
+            base.v[0] + dz,
+            base.v[1] + dz,
+            base.v[2] + dz,
+        ));
     }
     let ray = Ray::new(Vec3A::new(0.0, 0.0, -1.0), Vec3A::Z, 0.0, f32::INFINITY);
     for leaf in [1, 3, 50] {
@@ -326,8 +409,14 @@ fn original_indices_and_shared_leaves() {
         let want = brute::closest_hit(&tris, &ray);
         assert_eq!(want.prim, 48);
         for b in backends() {
-            assert_eq!(Bvh4::from_bvh(&bvh, &tris).closest_hit_with(b, &ray, &mut NoStats), want);
-            assert_eq!(Bvh8::from_bvh(&bvh, &tris).closest_hit_with(b, &ray, &mut NoStats), want);
+            assert_eq!(
+                Bvh4::from_bvh(&bvh, &tris).closest_hit_with(b, &ray, &mut NoStats),
+                want
+            );
+            assert_eq!(
+                Bvh8::from_bvh(&bvh, &tris).closest_hit_with(b, &ray, &mut NoStats),
+                want
+            );
         }
     }
 }

@@ -335,17 +335,22 @@ pub fn run(a: Args) -> Result<()> {
             })
             .collect();
         let first_row = traces.len();
-        for (b, bvh) in &trees {
-            for layout in &s.layouts {
-                let tracer = trace_cmd::make_tracer(layout, bvh, &scene.triangles)?;
-                for set in &sets {
-                    bar.set_message(format!(
-                        "{} / trace {b} {layout} {}",
-                        scene.name,
-                        set.kind.name()
-                    ));
-                    let (timing, counted) =
-                        trace_cmd::measure_trace(tracer.as_ref(), set, a.threads, s.passes)?;
+        for layout in &s.layouts {
+            let tracers: Vec<Box<dyn sahara_trace::Tracer + '_>> = trees
+                .iter()
+                .map(|(_, bvh)| trace_cmd::make_tracer(layout, bvh, &scene.triangles))
+                .collect::<Result<_>>()?;
+            for set in &sets {
+                bar.set_message(format!("{} / trace {layout} {}", scene.name, set.kind.name()));
+                // Passes are interleaved across builders (one warm-up round, then `passes`
+                // timed rounds), so that drift of a shared machine hits every tree alike.
+                let timings = util::with_threads(a.threads, || {
+                    interleaved_timings(&tracers, set, s.passes)
+                })?;
+                for ((b, _), (tracer, timing)) in trees.iter().zip(tracers.iter().zip(timings)) {
+                    let counted = util::with_threads(a.threads, || {
+                        sahara_trace::trace_set_counted(tracer.as_ref(), set)
+                    })?;
                     let rep = trace_cmd::report(
                         &scene.name,
                         scene.triangles.len(),
@@ -357,32 +362,7 @@ pub fn run(a: Args) -> Result<()> {
                         &counted,
                     );
                     if layout == "bvh2" && set.kind == RayKind::Primary {
-                        let path = format!("images/{}-{}-heat.png", file_stem(&scene.name), b);
-                        let heat = sahara_trace::heat_map(
-                            set.width,
-                            set.height,
-                            &set.pixel,
-                            &counted.work,
-                            99.0,
-                        );
-                        heat.image.write_png(out.join(&path))?;
-                        info.heat_maps.push((b.clone(), path));
-                        if info.render.is_none() {
-                            if let sahara_trace::TraceResults::Closest(hits) = &counted.results {
-                                let path = format!("images/{}-render.png", file_stem(&scene.name));
-                                let img = sahara_trace::shade(
-                                    set.width,
-                                    set.height,
-                                    &set.pixel,
-                                    &set.rays,
-                                    hits,
-                                    &scene.triangles,
-                                    sahara_trace::Shading::Grey,
-                                );
-                                img.write_png(out.join(&path))?;
-                                info.render = Some(path);
-                            }
-                        }
+                        write_images(&out, &scene, b, set, &counted, &mut info)?;
                     }
                     let cm = s.cost_model;
                     traces.push(TraceRow {
@@ -454,6 +434,61 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
+/// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds, each round
+/// tracing the whole set once with every tracer in turn.
+fn interleaved_timings(
+    tracers: &[Box<dyn sahara_trace::Tracer + '_>],
+    set: &RaySet,
+    passes: usize,
+) -> Vec<sahara_trace::Timing> {
+    let mut samples = vec![Vec::with_capacity(passes); tracers.len()];
+    for round in 0..=passes.max(1) {
+        for (i, t) in tracers.iter().enumerate() {
+            let t0 = std::time::Instant::now();
+            std::hint::black_box(sahara_trace::trace_set(t.as_ref(), set));
+            if round > 0 {
+                samples[i].push(t0.elapsed().as_secs_f64());
+            }
+        }
+    }
+    samples
+        .iter()
+        .map(|s| sahara_trace::Timing::from_samples(s))
+        .collect()
+}
+
+/// The render (once per scene) and the builder's heat map of primary-ray work.
+fn write_images(
+    out: &Path,
+    scene: &util::LoadedScene,
+    builder: &str,
+    set: &RaySet,
+    counted: &sahara_trace::CountedTrace<sahara_trace::TraceResults>,
+    info: &mut SceneInfo,
+) -> Result<()> {
+    let path = format!("images/{}-{}-heat.png", file_stem(&scene.name), builder);
+    let heat = sahara_trace::heat_map(set.width, set.height, &set.pixel, &counted.work, 99.0);
+    heat.image.write_png(out.join(&path))?;
+    info.heat_maps.push((builder.to_string(), path));
+    if info.render.is_none() {
+        if let sahara_trace::TraceResults::Closest(hits) = &counted.results {
+            let path = format!("images/{}-render.png", file_stem(&scene.name));
+            sahara_trace::shade(
+                set.width,
+                set.height,
+                &set.pixel,
+                &set.rays,
+                hits,
+                &scene.triangles,
+                sahara_trace::Shading::Grey,
+            )
+            .write_png(out.join(&path))?;
+            info.render = Some(path);
+        }
+    }
+    Ok(())
+}
+
 /// Builds slower than 5 s are timed once (the report says how many runs each has).
 fn adaptive_runs(
     tris: &[sahara_geom::Triangle],
@@ -496,7 +531,7 @@ fn relate(rows: &mut [TraceRow]) {
 }
 
 fn simd_backend() -> String {
-    "scalar bvh2".to_string()
+    sahara_traverse::simd_backend().to_string()
 }
 
 pub fn file_stem(name: &str) -> String {

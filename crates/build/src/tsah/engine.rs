@@ -5,6 +5,7 @@
 //! `greedy_below` primitives are built by the plain sweep rule.
 
 use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 use sahara_bvh::Bvh;
@@ -17,13 +18,16 @@ use crate::BuildInput;
 /// Rates a candidate split of a node (smaller is better). Implementations are called in
 /// parallel for the candidates of a node and must be deterministic.
 pub(crate) trait Rater: Sync {
-    /// True when [`LocalNode::centroids`] must be filled.
-    fn needs_centroids(&self) -> bool {
-        false
-    }
+    /// Buffers a rating may reuse.
+    type Scratch: Default + Send;
     /// The rating of `cand` (a split of `node`'s sorted orders).
-    fn rate(&self, node: &LocalNode, cand: &SplitCandidate) -> f64;
+    fn rate(&self, node: &LocalNode, cand: &SplitCandidate, scratch: &mut Self::Scratch) -> f64;
 }
+
+/// Nodes at least this large rate their candidates in parallel; smaller ones rate them on the
+/// current thread with the thread's reusable scratch (raters must not call into rayon for
+/// such nodes).
+const PAR_RATE: usize = 1024;
 
 /// How candidates are chosen and when to stop.
 #[derive(Clone, Copy, Debug)]
@@ -35,11 +39,9 @@ pub(crate) struct EngineParams {
 }
 
 /// A node's primitives relabelled `0..n` (by their position in the node's x order), so that
-/// raters work on small dense arrays: their boxes, centroids (when asked for) and the three
-/// sorted orders in local ids.
+/// raters work on small dense arrays: their boxes and the three sorted orders in local ids.
 pub(crate) struct LocalNode {
     pub bounds: Vec<Aabb>,
-    pub centroids: Vec<Vec3A>,
     pub orders: [Vec<u32>; 3],
     /// Half area of the node's bounds.
     pub area: f64,
@@ -55,12 +57,14 @@ impl LocalNode {
     }
 }
 
-struct Env<'a, R> {
+struct Env<'a, R: Rater> {
     ctx: BuildCtx<'a>,
     params: EngineParams,
     rater: &'a R,
     /// Global id -> local id of the node being rated (nodes rated concurrently are disjoint).
     local_of: Vec<AtomicU32>,
+    /// One rating scratch per worker thread, for nodes rated serially.
+    scratch: Vec<Mutex<R::Scratch>>,
 }
 
 /// Builds the tree.
@@ -77,6 +81,9 @@ pub(crate) fn build<R: Rater>(input: &BuildInput, params: &EngineParams, rater: 
         params: *params,
         rater,
         local_of: (0..input.len()).map(|_| AtomicU32::new(0)).collect(),
+        scratch: (0..rayon::current_num_threads() + 1)
+            .map(|_| Mutex::new(R::Scratch::default()))
+            .collect(),
     };
     let mut storage = Storage::new(input.centroids());
     {
@@ -217,19 +224,19 @@ fn bin_positions(order: &[u32], centroids: &[Vec3A], axis: usize, bins: usize) -
 /// finite scale).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BinMap {
-    min: f32,
-    scale: f32,
+    pub min: f32,
+    pub scale: f32,
     bins: usize,
 }
 
 impl BinMap {
     pub fn new(min: f32, max: f32, bins: usize) -> Option<Self> {
         let extent = max - min;
-        if !(extent > 0.0) || bins < 2 {
+        if extent.is_nan() || extent <= 0.0 || bins < 2 {
             return None;
         }
         let scale = bins as f32 / extent;
-        if !scale.is_finite() || !(scale > 0.0) {
+        if !scale.is_finite() || scale <= 0.0 {
             return None;
         }
         Some(Self { min, scale, bins })
@@ -278,10 +285,28 @@ fn node<'a, R: Rater>(job: Job<'a>, env: &Env<'_, R>) -> Option<(Job<'a>, Job<'a
         cands[0]
     } else {
         let local = local_node(env, orders, &node_bounds);
-        let ratings: Vec<f64> = cands
-            .par_iter()
-            .map(|c| env.rater.rate(&local, c))
-            .collect();
+        let ratings: Vec<f64> = if n >= PAR_RATE {
+            cands
+                .par_iter()
+                .map_init(R::Scratch::default, |sc, c| env.rater.rate(&local, c, sc))
+                .collect()
+        } else {
+            let slot = rayon::current_thread_index()
+                .map_or(env.scratch.len() - 1, |i| i.min(env.scratch.len() - 1));
+            match env.scratch[slot].try_lock() {
+                Ok(mut sc) => cands
+                    .iter()
+                    .map(|c| env.rater.rate(&local, c, &mut sc))
+                    .collect(),
+                Err(_) => {
+                    let mut sc = R::Scratch::default();
+                    cands
+                        .iter()
+                        .map(|c| env.rater.rate(&local, c, &mut sc))
+                        .collect()
+                }
+            }
+        };
         let mut best = 0;
         for i in 1..cands.len() {
             let a = SplitCandidate {
@@ -316,18 +341,13 @@ fn local_node<R: Rater>(env: &Env<'_, R>, orders: [&[u32]; 3], node_bounds: &Aab
             .map(|&g| env.local_of[g as usize].load(Ordering::Relaxed))
             .collect()
     };
-    let centroids = if env.rater.needs_centroids() {
-        orders[0]
-            .iter()
-            .map(|&g| ctx.centroids[g as usize])
-            .collect()
-    } else {
-        Vec::new()
-    };
     LocalNode {
         bounds: orders[0].iter().map(|&g| ctx.bounds[g as usize]).collect(),
-        centroids,
-        orders: [(0..n as u32).collect(), relabel(orders[1]), relabel(orders[2])],
+        orders: [
+            (0..n as u32).collect(),
+            relabel(orders[1]),
+            relabel(orders[2]),
+        ],
         area: node_bounds.half_area() as f64,
     }
 }

@@ -7,7 +7,11 @@ use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::CostModel;
 
 fn point(r: &mut Pcg32, lo: f32, hi: f32) -> Vec3A {
-    Vec3A::new(r.range_f32(lo, hi), r.range_f32(lo, hi), r.range_f32(lo, hi))
+    Vec3A::new(
+        r.range_f32(lo, hi),
+        r.range_f32(lo, hi),
+        r.range_f32(lo, hi),
+    )
 }
 
 /// Random triangles of widely varying sizes in a box.
@@ -63,7 +67,11 @@ pub fn mesh_like(grid: usize, seed: u64) -> Vec<Triangle> {
     }
     for _ in 0..6 {
         let o = point(&mut r, -40.0, 40.0);
-        tris.push(Triangle::new(o, o + point(&mut r, -30.0, 30.0), o + point(&mut r, -30.0, 30.0)));
+        tris.push(Triangle::new(
+            o,
+            o + point(&mut r, -30.0, 30.0),
+            o + point(&mut r, -30.0, 30.0),
+        ));
     }
     tris
 }
@@ -134,7 +142,12 @@ pub fn build_in(builder: &dyn Builder, tris: &[Triangle], threads: usize) -> Bvh
 pub fn check_builder(builder: &dyn Builder, tris: &[Triangle], max_leaf: usize, what: &str) -> Bvh {
     let one = build_in(builder, tris, 1);
     let two = build_in(builder, tris, 2);
-    assert_eq!(one, two, "{}: {what}: 1- and 2-thread trees differ", builder.name());
+    assert_eq!(
+        one,
+        two,
+        "{}: {what}: 1- and 2-thread trees differ",
+        builder.name()
+    );
     one.validate(tris)
         .unwrap_or_else(|e| panic!("{}: {what}: invalid tree: {e}", builder.name()));
     if tris.is_empty() {

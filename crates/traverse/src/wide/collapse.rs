@@ -24,7 +24,10 @@ struct Collapser<'a, const W: usize> {
 }
 
 pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: &[Triangle]) -> WideBvh<W> {
-    assert!(W == 4 || W == 8, "wide BVHs have 4 or 8 children per node, not {W}");
+    assert!(
+        W == 4 || W == 8,
+        "wide BVHs have 4 or 8 children per node, not {W}"
+    );
     let backend = Backend::best();
     if bvh.nodes.is_empty() {
         return WideBvh {
@@ -191,7 +194,10 @@ impl<const W: usize> Collapser<'_, W> {
     fn big_leaf(&mut self, prims: &[u32], bounds: &Aabb) -> u32 {
         if prims.len() <= LEAF_MAX {
             let first = self.packets.len();
-            assert!(first + MAX_LEAF_PACKETS <= LEAF_FIRST_MASK as usize, "too many triangle packets");
+            assert!(
+                first + MAX_LEAF_PACKETS <= LEAF_FIRST_MASK as usize,
+                "too many triangle packets"
+            );
             for chunk in prims.chunks(4) {
                 self.packets.push(self.packet(chunk));
             }

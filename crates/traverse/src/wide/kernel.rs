@@ -34,6 +34,7 @@ pub(crate) struct RayData {
     pub(crate) near_row: [usize; 3],
     /// Row of the far plane.
     pub(crate) far_row: [usize; 3],
+    /// The watertight test's constants; filled in by [`RayData::finish`] after the root test.
     pub(crate) w: WatertightRay,
 }
 
@@ -56,8 +57,21 @@ impl RayData {
             box_tmin: ray.tmin - ray.tmin.abs() * (1.0 / 65536.0),
             near_row,
             far_row,
-            w: ray.watertight(),
+            w: WatertightRay {
+                origin: ray.origin,
+                kz: 2,
+                kx: 0,
+                ky: 1,
+                shear: sahara_geom::Vec3A::ZERO,
+            },
         }
+    }
+
+    /// Computes the watertight test's constants (three divisions: done only for rays that
+    /// enter the root box).
+    #[inline(always)]
+    pub(crate) fn finish(&mut self, ray: &Ray) {
+        self.w = ray.watertight();
     }
 
     /// The robust slab test of one box given as `[min_x, max_x, min_y, max_y, min_z, max_z]`,
@@ -164,24 +178,35 @@ pub(crate) trait Stack {
 /// Capacity of [`FixedStack`].
 pub(crate) const FIXED_STACK: usize = 256;
 
-/// An uninitialised array on the call stack, used only for trees whose stack bound
-/// ([`WideBvh::max_stack`]) fits, so pushes need no capacity check.
-pub(crate) struct FixedStack {
-    data: [MaybeUninit<Entry>; FIXED_STACK],
+/// Storage of a [`FixedStack`]: declare it as a separate local (`FixedStack::buffer()`); a
+/// `MaybeUninit` field built inside an aggregate gets zero-filled by rustc, 2 KiB per ray.
+pub(crate) type StackBuffer = MaybeUninit<[Entry; FIXED_STACK]>;
+
+/// A stack in an uninitialised array on the call stack, used for trees whose stack bound
+/// fits.
+pub(crate) struct FixedStack<'a> {
+    data: &'a mut StackBuffer,
     len: usize,
 }
 
-impl FixedStack {
+impl<'a> FixedStack<'a> {
     #[inline(always)]
-    pub(crate) fn new() -> Self {
-        Self {
-            data: [MaybeUninit::uninit(); FIXED_STACK],
-            len: 0,
-        }
+    pub(crate) fn buffer() -> StackBuffer {
+        MaybeUninit::uninit()
+    }
+
+    #[inline(always)]
+    pub(crate) fn new(data: &'a mut StackBuffer) -> Self {
+        Self { data, len: 0 }
+    }
+
+    #[inline(always)]
+    fn ptr(&mut self) -> *mut Entry {
+        self.data.as_mut_ptr().cast::<Entry>()
     }
 }
 
-impl Stack for FixedStack {
+impl Stack for FixedStack<'_> {
     #[inline(always)]
     fn push(&mut self, e: Entry) {
         // The tree's stack bound was checked against the capacity before choosing this stack;
@@ -190,7 +215,7 @@ impl Stack for FixedStack {
             overflow();
         }
         // SAFETY: `len < FIXED_STACK`.
-        unsafe { self.data.get_unchecked_mut(self.len).write(e) };
+        unsafe { self.ptr().add(self.len).write(e) };
         self.len += 1;
     }
 
@@ -201,17 +226,15 @@ impl Stack for FixedStack {
         }
         self.len -= 1;
         // SAFETY: entries below `len` were written by `push`.
-        Some(unsafe { self.data.get_unchecked(self.len).assume_init() })
+        Some(unsafe { self.ptr().add(self.len).read() })
     }
 
     #[inline(always)]
     fn top_mut(&mut self, n: usize) -> &mut [Entry] {
-        debug_assert!(n <= self.len);
+        assert!(n <= self.len);
         let start = self.len - n;
         // SAFETY: entries below `len` are initialised, and `start..len` is in bounds.
-        unsafe {
-            std::slice::from_raw_parts_mut(self.data.as_mut_ptr().add(start).cast::<Entry>(), n)
-        }
+        unsafe { std::slice::from_raw_parts_mut(self.ptr().add(start), n) }
     }
 }
 
@@ -353,16 +376,15 @@ pub(crate) unsafe fn closest_hit<
     if bvh.root == NO_ROOT || !ray.is_valid() {
         return best;
     }
-    let rd = RayData::new(ray);
+    let mut rd = RayData::new(ray);
     let rb = &bvh.root_bounds;
-    let root_box = [
-        rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z,
-    ];
+    let root_box = [rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z];
     // Culling distance: the nearest hit so far (or tmax), widened.
     let mut tfar = widen(rd.tmax);
     if rd.slab::<NEG>(root_box, tfar).is_none() {
         return best;
     }
+    rd.finish(ray);
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
     let mut cur = bvh.root;
@@ -377,7 +399,8 @@ pub(crate) unsafe fn closest_hit<
             // SAFETY: inner references are built in bounds of `nodes`.
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
-            let mut mask = unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
+            let mut mask =
+                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
             if mask != 0 {
                 let i0 = lane::<W>(mask);
                 mask &= mask - 1;
@@ -396,7 +419,11 @@ pub(crate) unsafe fn closest_hit<
                     dist: dist[i1],
                 };
                 if mask == 0 {
-                    let (near, far) = if e1.dist < e0.dist { (e1, e0) } else { (e0, e1) };
+                    let (near, far) = if e1.dist < e0.dist {
+                        (e1, e0)
+                    } else {
+                        (e0, e1)
+                    };
                     stack.push(far);
                     cur = near.child;
                     continue;
@@ -453,15 +480,14 @@ pub(crate) unsafe fn any_hit<
     if bvh.root == NO_ROOT || !ray.is_valid() {
         return false;
     }
-    let rd = RayData::new(ray);
+    let mut rd = RayData::new(ray);
     let rb = &bvh.root_bounds;
-    let root_box = [
-        rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z,
-    ];
+    let root_box = [rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z];
     let tfar = widen(rd.tmax);
     if rd.slab::<NEG>(root_box, tfar).is_none() {
         return false;
     }
+    rd.finish(ray);
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
     let mut dist = [0.0f32; W];

@@ -36,7 +36,16 @@
 //!   reference kernel [`crate::scalar::closest_hit`];
 //! * candidate triangles are accepted against the ray's own `[tmin, tmax]` and then compared
 //!   with [`Hit::is_improved_by`], so the result does not depend on the order in which leaves
-//!   are visited (equal distances: lowest primitive index).
+//!   are visited (equal distances: lowest primitive index): it is the brute-force result
+//!   ([`crate::brute`]);
+//! * culling uses the current hit distance widened by 2^-16 of itself, so that a box whose
+//!   computed entry distance rounds just past a tying triangle is still visited, and rays
+//!   with `tmin < 0` also make negative far distances conservative (`× (1 - 2γ(3))`).
+//!
+//! The scalar reference differs from brute force in three corner cases (documented in the
+//! crate README: rays in the minimum plane of a box, order-dependent ties under its triangle
+//! pre-test, flat boxes behind the origin when `tmin < 0`); there the wide kernels return the
+//! brute-force result. Everywhere else all kernels agree bit for bit.
 //!
 //! Invalid rays ([`Ray::is_valid`]) miss.
 //!
@@ -190,7 +199,8 @@ impl<const W: usize> WideBvh<W> {
     ///
     /// # Panics
     ///
-    /// If `W` is not 4 or 8, or if a leaf of `bvh` references a triangle outside `tris`.
+    /// If `W` is not 4 or 8, if `bvh` fails [`Bvh::validate_structure`], or if a leaf of
+    /// `bvh` references a triangle outside `tris`.
     pub fn from_bvh(bvh: &Bvh, tris: &[Triangle]) -> Self {
         collapse::collapse(bvh, tris)
     }
@@ -235,7 +245,12 @@ impl<const W: usize> WideBvh<W> {
     /// Any hit with a chosen backend; a backend this CPU lacks falls back to
     /// [`Backend::Portable`].
     #[inline]
-    pub fn any_hit_with<S: TraversalStats>(&self, backend: Backend, ray: &Ray, stats: &mut S) -> bool {
+    pub fn any_hit_with<S: TraversalStats>(
+        &self,
+        backend: Backend,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
         match backend {
             #[cfg(target_arch = "x86_64")]
             Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
@@ -400,7 +415,11 @@ pub struct ParseLayoutError(pub String);
 
 impl fmt::Display for ParseLayoutError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "unknown layout {:?} (expected bvh2, bvh4 or bvh8)", self.0)
+        write!(
+            f,
+            "unknown layout {:?} (expected bvh2, bvh4 or bvh8)",
+            self.0
+        )
     }
 }
 

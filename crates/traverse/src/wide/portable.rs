@@ -82,8 +82,18 @@ pub(crate) fn closest_hit<const W: usize, S: TraversalStats>(
     // SAFETY: the portable kernel needs no CPU feature.
     unsafe {
         match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
-            (true, false) => kernel::closest_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new()),
-            (true, true) => kernel::closest_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut FixedStack::new()),
+            (true, false) => kernel::closest_hit::<Portable, W, S, _, false>(
+                bvh,
+                ray,
+                stats,
+                &mut FixedStack::new(&mut FixedStack::buffer()),
+            ),
+            (true, true) => kernel::closest_hit::<Portable, W, S, _, true>(
+                bvh,
+                ray,
+                stats,
+                &mut FixedStack::new(&mut FixedStack::buffer()),
+            ),
             (false, neg) => {
                 let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
                 if neg {
@@ -104,8 +114,18 @@ pub(crate) fn any_hit<const W: usize, S: TraversalStats>(
     // SAFETY: as in `closest_hit`.
     unsafe {
         match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
-            (true, false) => kernel::any_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new()),
-            (true, true) => kernel::any_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut FixedStack::new()),
+            (true, false) => kernel::any_hit::<Portable, W, S, _, false>(
+                bvh,
+                ray,
+                stats,
+                &mut FixedStack::new(&mut FixedStack::buffer()),
+            ),
+            (true, true) => kernel::any_hit::<Portable, W, S, _, true>(
+                bvh,
+                ray,
+                stats,
+                &mut FixedStack::new(&mut FixedStack::buffer()),
+            ),
             (false, neg) => {
                 let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
                 if neg {

@@ -182,7 +182,7 @@ unsafe fn tri4_range(r: &SseRay, t_scaled: __m128, det: __m128, ok: __m128) -> [
 unsafe fn packet_closest(p: &TriPacket, r: &SseRay, tfar: f32, out: &mut PacketHits) -> (u32, u32) {
     // SAFETY (whole function): SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
     unsafe {
-        let [u, v, w, t_scaled, det, ok, is_zero] = tri4(p, r);
+        let [_, v, w, t_scaled, det, ok, is_zero] = tri4(p, r);
         let pre = _mm_movemask_ps(ok) as u32;
         let fallback = _mm_movemask_ps(is_zero) as u32;
         if pre & !fallback == 0 {
@@ -196,7 +196,6 @@ unsafe fn packet_closest(p: &TriPacket, r: &SseRay, tfar: f32, out: &mut PacketH
             _mm_storeu_ps(out.u.as_mut_ptr(), _mm_mul_ps(v, inv));
             _mm_storeu_ps(out.v.as_mut_ptr(), _mm_mul_ps(w, inv));
         }
-        let _ = u;
         (hits, fallback)
     }
 }
@@ -267,71 +266,52 @@ impl<const W: usize> Kernel<W> for Sse {
     }
 }
 
-/// The ray's constants for the AVX2 backend.
-#[derive(Clone, Copy)]
-pub(crate) struct AvxRay {
-    sse: SseRay,
-    origin: [__m256; 3],
-    inv: [__m256; 3],
-    box_tmin: __m256,
-}
-
 /// The AVX2 backend: 8-wide box tests in 256-bit registers (4-wide nodes and triangle
 /// packets use the SSE code, compiled with VEX encoding).
 pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
-    type Ray = AvxRay;
+    type Ray = SseRay;
 
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn prepare(rd: &RayData) -> AvxRay {
-        let o = rd.origin;
-        AvxRay {
-            // SAFETY: SSE2 is part of x86-64.
-            sse: unsafe { sse_ray::<W>(rd) },
-            origin: [
-                _mm256_set1_ps(o[0]),
-                _mm256_set1_ps(o[1]),
-                _mm256_set1_ps(o[2]),
-            ],
-            inv: [
-                _mm256_set1_ps(rd.inv[0]),
-                _mm256_set1_ps(rd.inv[1]),
-                _mm256_set1_ps(rd.inv[2]),
-            ],
-            box_tmin: _mm256_set1_ps(rd.box_tmin),
-        }
+    #[inline(always)]
+    unsafe fn prepare(rd: &RayData) -> SseRay {
+        // SAFETY: SSE2 is part of x86-64. (The 256-bit constants are broadcast in
+        // `intersect_node`, which is inlined into the traversal loop, so they are hoisted out of
+        // it; building them here would need a `target_feature` function that is not inlined.)
+        unsafe { sse_ray::<W>(rd) }
     }
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn intersect_node<const NEG: bool>(
         node: &WideNode<W>,
-        r: &AvxRay,
+        r: &SseRay,
         rd: &RayData,
         tfar: f32,
         dist: &mut [f32; W],
     ) -> u32 {
         if W != 8 {
             // SAFETY: as for `Sse`.
-            return unsafe { <Sse as Kernel<W>>::intersect_node::<NEG>(node, &r.sse, rd, tfar, dist) };
+            return unsafe { <Sse as Kernel<W>>::intersect_node::<NEG>(node, r, rd, tfar, dist) };
         }
         // SAFETY: `W == 8`: rows hold 8 floats, 32-byte aligned (the node is 64-byte aligned
         // and rows are 32 bytes); `dist` holds 8 floats.
         unsafe {
             let base = node.bounds.as_ptr().cast::<f32>();
             let scale = _mm256_set1_ps(ROBUST_FAR_SCALE);
-            let mut near = r.box_tmin;
+            let mut near = _mm256_set1_ps(rd.box_tmin);
             let mut far = _mm256_set1_ps(tfar);
             for a in 0..3 {
-                let pn = _mm256_load_ps(base.add(r.sse.near_off[a]));
-                let pf = _mm256_load_ps(base.add(r.sse.far_off[a]));
-                let tn = _mm256_mul_ps(_mm256_sub_ps(pn, r.origin[a]), r.inv[a]);
-                let tf0 = _mm256_mul_ps(_mm256_sub_ps(pf, r.origin[a]), r.inv[a]);
+                let o = _mm256_set1_ps(rd.origin[a]);
+                let inv = _mm256_set1_ps(rd.inv[a]);
+                let pn = _mm256_load_ps(base.add(r.near_off[a]));
+                let pf = _mm256_load_ps(base.add(r.far_off[a]));
+                let tn = _mm256_mul_ps(_mm256_sub_ps(pn, o), inv);
+                let tf0 = _mm256_mul_ps(_mm256_sub_ps(pf, o), inv);
                 let mut tf = _mm256_mul_ps(tf0, scale);
                 if NEG {
-                    tf = _mm256_max_ps(tf, _mm256_mul_ps(tf0, _mm256_set1_ps(ROBUST_NEG_FAR_SCALE)));
+                    tf =
+                        _mm256_max_ps(tf, _mm256_mul_ps(tf0, _mm256_set1_ps(ROBUST_NEG_FAR_SCALE)));
                 }
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
@@ -345,20 +325,20 @@ impl<const W: usize> Kernel<W> for Avx2 {
     #[target_feature(enable = "avx2,fma")]
     unsafe fn intersect_packet(
         p: &TriPacket,
-        r: &AvxRay,
+        r: &SseRay,
         _: &RayData,
         tfar: f32,
         out: &mut PacketHits,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest(p, &r.sse, tfar, out) }
+        unsafe { packet_closest(p, r, tfar, out) }
     }
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn occlude_packet(p: &TriPacket, r: &AvxRay, _: &RayData) -> (u32, u32) {
+    unsafe fn occlude_packet(p: &TriPacket, r: &SseRay, _: &RayData) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded(p, &r.sse) }
+        unsafe { packet_occluded(p, r) }
     }
 }
 
@@ -381,7 +361,7 @@ macro_rules! entry_points {
             // SAFETY: the caller guarantees the CPU features; the stack bound fits.
             #[allow(unused_unsafe)]
             unsafe {
-                kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new())
+                kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new(&mut FixedStack::buffer()))
             }
         }
 
@@ -399,7 +379,7 @@ macro_rules! entry_points {
             // SAFETY: the caller guarantees the CPU features; the stack bound fits.
             #[allow(unused_unsafe)]
             unsafe {
-                kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new())
+                kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new(&mut FixedStack::buffer()))
             }
         }
 
@@ -416,7 +396,8 @@ macro_rules! entry_points {
             #[allow(unused_unsafe)]
             unsafe {
                 if bvh.max_stack <= FIXED_STACK {
-                    let st = &mut FixedStack::new();
+                    let mut buf = FixedStack::buffer();
+                    let st = &mut FixedStack::new(&mut buf);
                     return if neg {
                         kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
                     } else {
@@ -444,7 +425,8 @@ macro_rules! entry_points {
             #[allow(unused_unsafe)]
             unsafe {
                 if bvh.max_stack <= FIXED_STACK {
-                    let st = &mut FixedStack::new();
+                    let mut buf = FixedStack::buffer();
+                    let st = &mut FixedStack::new(&mut buf);
                     return if neg {
                         kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
                     } else {
@@ -463,7 +445,14 @@ macro_rules! entry_points {
 }
 
 // SSE2 is part of x86-64: the SSE2 entry points are always safe to call there.
-entry_points!(Sse, [], closest_hit_sse2, any_hit_sse2, closest_sse2_slow, any_sse2_slow);
+entry_points!(
+    Sse,
+    [],
+    closest_hit_sse2,
+    any_hit_sse2,
+    closest_sse2_slow,
+    any_sse2_slow
+);
 entry_points!(
     Avx2,
     [#[target_feature(enable = "avx2,fma")]],

@@ -12,11 +12,7 @@ use sahara_geom::{clip, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 pub fn random_soup(n: usize, seed: u64) -> Vec<Triangle> {
     let mut r = Pcg32::new(seed, 7);
     let p = |r: &mut Pcg32, s: f32| {
-        Vec3A::new(
-            r.range_f32(-s, s),
-            r.range_f32(-s, s),
-            r.range_f32(-s, s),
-        )
+        Vec3A::new(r.range_f32(-s, s), r.range_f32(-s, s), r.range_f32(-s, s))
     };
     (0..n)
         .map(|_| {
@@ -31,7 +27,13 @@ pub fn random_soup(n: usize, seed: u64) -> Vec<Triangle> {
 /// neighbouring triangles) inside a closed axis-aligned box `[-half, half]^3` whose faces are
 /// split into `grid × grid` quads. Returns the triangles and the number belonging to the
 /// sphere (they come first).
-pub fn sphere_in_box(rings: usize, segments: usize, radius: f32, half: f32, grid: usize) -> (Vec<Triangle>, usize) {
+pub fn sphere_in_box(
+    rings: usize,
+    segments: usize,
+    radius: f32,
+    half: f32,
+    grid: usize,
+) -> (Vec<Triangle>, usize) {
     let mut tris = Vec::new();
     let vert = |i: usize, j: usize| -> Vec3A {
         if i == 0 {
@@ -42,11 +44,20 @@ pub fn sphere_in_box(rings: usize, segments: usize, radius: f32, half: f32, grid
         }
         let th = std::f32::consts::PI * i as f32 / rings as f32;
         let ph = 2.0 * std::f32::consts::PI * (j % segments) as f32 / segments as f32;
-        Vec3A::new(radius * th.sin() * ph.cos(), radius * th.cos(), radius * th.sin() * ph.sin())
+        Vec3A::new(
+            radius * th.sin() * ph.cos(),
+            radius * th.cos(),
+            radius * th.sin() * ph.sin(),
+        )
     };
     for i in 0..rings {
         for j in 0..segments {
-            let (a, b, c, d) = (vert(i, j), vert(i, j + 1), vert(i + 1, j), vert(i + 1, j + 1));
+            let (a, b, c, d) = (
+                vert(i, j),
+                vert(i, j + 1),
+                vert(i + 1, j),
+                vert(i + 1, j + 1),
+            );
             if i != 0 {
                 tris.push(Triangle::new(a, b, c));
             }
@@ -104,7 +115,11 @@ pub fn load_obj(path: &str) -> Vec<Triangle> {
                     })
                     .collect();
                 for k in 1..idx.len().saturating_sub(1) {
-                    tris.push(Triangle::new(verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]));
+                    tris.push(Triangle::new(
+                        verts[idx[0]],
+                        verts[idx[k]],
+                        verts[idx[k + 1]],
+                    ));
                 }
             }
             _ => {}
@@ -137,7 +152,11 @@ fn median_rec(tris: &[Triangle], prims: &mut [u32], leaf: usize, bvh: &mut Bvh) 
     let idx = bvh.nodes.len();
     let b = bounds_of(tris, prims);
     if prims.len() <= leaf {
-        bvh.nodes.push(Node::leaf(&b, bvh.prim_indices.len() as u32, prims.len() as u32));
+        bvh.nodes.push(Node::leaf(
+            &b,
+            bvh.prim_indices.len() as u32,
+            prims.len() as u32,
+        ));
         bvh.prim_indices.extend_from_slice(prims);
         return idx as u32;
     }
@@ -148,7 +167,10 @@ fn median_rec(tris: &[Triangle], prims: &mut [u32], leaf: usize, bvh: &mut Bvh) 
     let axis = cb.largest_axis();
     let mid = prims.len() / 2;
     prims.select_nth_unstable_by(mid, |&a, &b| {
-        let (ca, cb) = (tris[a as usize].centroid()[axis], tris[b as usize].centroid()[axis]);
+        let (ca, cb) = (
+            tris[a as usize].centroid()[axis],
+            tris[b as usize].centroid()[axis],
+        );
         ca.total_cmp(&cb).then(a.cmp(&b))
     });
     let (l, r) = prims.split_at_mut(mid);
@@ -174,21 +196,30 @@ pub fn sah_bvh(tris: &[Triangle], max_leaf: usize) -> Bvh {
 fn sah_rec(bounds: &[Aabb], cents: &[Vec3A], prims: &mut [u32], max_leaf: usize, bvh: &mut Bvh) {
     const BINS: usize = 16;
     let idx = bvh.nodes.len();
-    let b = prims.iter().fold(Aabb::EMPTY, |a, &p| a.union(&bounds[p as usize]));
+    let b = prims
+        .iter()
+        .fold(Aabb::EMPTY, |a, &p| a.union(&bounds[p as usize]));
     let make_leaf = |bvh: &mut Bvh, prims: &[u32]| {
-        bvh.nodes.push(Node::leaf(&b, bvh.prim_indices.len() as u32, prims.len() as u32));
+        bvh.nodes.push(Node::leaf(
+            &b,
+            bvh.prim_indices.len() as u32,
+            prims.len() as u32,
+        ));
         bvh.prim_indices.extend_from_slice(prims);
     };
     let n = prims.len();
     if n == 1 {
         return make_leaf(bvh, prims);
     }
-    let cb = prims.iter().fold(Aabb::EMPTY, |a, &p| a.grown(cents[p as usize]));
+    let cb = prims
+        .iter()
+        .fold(Aabb::EMPTY, |a, &p| a.grown(cents[p as usize]));
     let axis = cb.largest_axis();
     let (lo, ext) = (cb.min[axis], cb.max[axis] - cb.min[axis]);
     let mut split = None;
     if ext > 0.0 {
-        let bin_of = |p: u32| (((cents[p as usize][axis] - lo) / ext * BINS as f32) as usize).min(BINS - 1);
+        let bin_of =
+            |p: u32| (((cents[p as usize][axis] - lo) / ext * BINS as f32) as usize).min(BINS - 1);
         let mut bb = [Aabb::EMPTY; BINS];
         let mut bc = [0usize; BINS];
         for &p in prims.iter() {
@@ -272,7 +303,13 @@ pub fn spatial_bvh(tris: &[Triangle], leaf: usize) -> Bvh {
     bvh
 }
 
-fn spatial_rec(tris: &[Triangle], refs: Vec<(u32, Aabb)>, leaf: usize, depth: usize, bvh: &mut Bvh) -> Aabb {
+fn spatial_rec(
+    tris: &[Triangle],
+    refs: Vec<(u32, Aabb)>,
+    leaf: usize,
+    depth: usize,
+    bvh: &mut Bvh,
+) -> Aabb {
     let idx = bvh.nodes.len();
     let b = refs.iter().fold(Aabb::EMPTY, |a, r| a.union(&r.1));
     let mut children = None;
@@ -296,7 +333,11 @@ fn spatial_rec(tris: &[Triangle], refs: Vec<(u32, Aabb)>, leaf: usize, depth: us
         }
     }
     let Some((l, r)) = children else {
-        bvh.nodes.push(Node::leaf(&b, bvh.prim_indices.len() as u32, refs.len() as u32));
+        bvh.nodes.push(Node::leaf(
+            &b,
+            bvh.prim_indices.len() as u32,
+            refs.len() as u32,
+        ));
         bvh.prim_indices.extend(refs.iter().map(|r| r.0));
         return b;
     };
@@ -335,7 +376,11 @@ pub fn comb_bvh(tris: &[Triangle]) -> Bvh {
 
 pub fn unit_dir(r: &mut Pcg32) -> Vec3A {
     loop {
-        let d = Vec3A::new(r.range_f32(-1.0, 1.0), r.range_f32(-1.0, 1.0), r.range_f32(-1.0, 1.0));
+        let d = Vec3A::new(
+            r.range_f32(-1.0, 1.0),
+            r.range_f32(-1.0, 1.0),
+            r.range_f32(-1.0, 1.0),
+        );
         let l = d.length_squared();
         if l > 1e-4 && l <= 1.0 {
             return d / l.sqrt();
@@ -418,13 +463,21 @@ pub fn grazing_rays(bvh: &Bvh, n: usize, seed: u64) -> Vec<Ray> {
             let b = node.bounds();
             let axis = r.below(3) as usize;
             let mut o = point_in(&mut r, &b);
-            o[axis] = if r.below(2) == 0 { b.min[axis] } else { b.max[axis] };
+            o[axis] = if r.below(2) == 0 {
+                b.min[axis]
+            } else {
+                b.max[axis]
+            };
             let mut d = unit_dir(&mut r);
             d[axis] = if r.below(2) == 0 { 0.0 } else { -0.0 };
             if i % 3 == 0 {
                 // Along an edge of the box: a second coordinate on a plane, axis-parallel.
                 let a2 = (axis + 1 + r.below(2) as usize) % 3;
-                o[a2] = if r.below(2) == 0 { b.min[a2] } else { b.max[a2] };
+                o[a2] = if r.below(2) == 0 {
+                    b.min[a2]
+                } else {
+                    b.max[a2]
+                };
                 d = Vec3A::ZERO;
                 let a3 = 3 - axis - a2;
                 d[a3] = if r.below(2) == 0 { 1.0 } else { -1.0 };
@@ -433,7 +486,11 @@ pub fn grazing_rays(bvh: &Bvh, n: usize, seed: u64) -> Vec<Ray> {
                 }
                 // Start outside the box along the free axis half of the time.
                 if r.below(2) == 0 {
-                    o[a3] = if d[a3] > 0.0 { b.min[a3] - 1.0 } else { b.max[a3] + 1.0 };
+                    o[a3] = if d[a3] > 0.0 {
+                        b.min[a3] - 1.0
+                    } else {
+                        b.max[a3] + 1.0
+                    };
                 }
             }
             Ray::new(o, d, 0.0, f32::INFINITY)
@@ -447,7 +504,17 @@ pub fn adversarial_rays(b: &Aabb, seed: u64) -> Vec<Ray> {
     let mut r = Pcg32::new(seed, 23);
     let c = b.centroid();
     let outside = c - Vec3A::new(0.0, 0.0, 3.0 * b.extent().max_element().max(1.0));
-    let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0, 1e-40, -1e-40, f32::MAX, f32::MIN_POSITIVE];
+    let specials = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        0.0,
+        -0.0,
+        1e-40,
+        -1e-40,
+        f32::MAX,
+        f32::MIN_POSITIVE,
+    ];
     let mut rays = Vec::new();
     for &s in &specials {
         for k in 0..3 {
@@ -469,7 +536,14 @@ pub fn adversarial_rays(b: &Aabb, seed: u64) -> Vec<Ray> {
     rays.push(Ray::new(c, Vec3A::Z, -5.0, -1.0)); // behind
     rays.push(Ray::new(c, Vec3A::Z, f32::NEG_INFINITY, f32::INFINITY));
     rays.push(Ray::new(c, Vec3A::Z, 0.0, 0.0));
-    for axis in [Vec3A::X, Vec3A::Y, Vec3A::Z, -Vec3A::X, -Vec3A::Y, -Vec3A::Z] {
+    for axis in [
+        Vec3A::X,
+        Vec3A::Y,
+        Vec3A::Z,
+        -Vec3A::X,
+        -Vec3A::Y,
+        -Vec3A::Z,
+    ] {
         for _ in 0..20 {
             let o = point_in(&mut r, b);
             rays.push(Ray::new(o, axis, 0.0, f32::INFINITY));
