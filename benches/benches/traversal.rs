@@ -1,10 +1,9 @@
 //! Trace throughput of the traversal layouts on primary and diffuse rays, one thread.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use sahara_benches::procedural;
 use sahara_build::{registry, BuildInput, CostModel};
 use sahara_scene::Procedural;
-use sahara_trace::{Bvh2Tracer, Camera, RayKind, RaySet, Tracer};
+use sahara_trace::{Bvh2Tracer, Camera, RayKind, RaySet, Tracer, WideTracer};
 
 fn traversal(c: &mut Criterion) {
     let scene = Procedural::TeapotStadium.scene(30_000, sahara_scene::DEFAULT_SEED);
@@ -13,10 +12,18 @@ fn traversal(c: &mut Criterion) {
     let bvh = registry::by_name("sweep").unwrap().build(&input).unwrap();
     let cam = &scene.camera;
     let camera = Camera::new(cam.eye, cam.target, cam.up, cam.fov_y_degrees);
-    let tracers: Vec<Box<dyn Tracer + '_>> = vec![Box::new(Bvh2Tracer::new(&bvh, &tris))];
+    let tracers: Vec<Box<dyn Tracer + '_>> = vec![
+        Box::new(Bvh2Tracer::new(&bvh, &tris)),
+        Box::new(WideTracer::<4>::new(&bvh, &tris)),
+        Box::new(WideTracer::<8>::new(&bvh, &tris)),
+    ];
     let mut g = c.benchmark_group("trace");
     g.sample_size(10);
-    for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::AmbientOcclusion] {
+    for kind in [
+        RayKind::Primary,
+        RayKind::Diffuse,
+        RayKind::AmbientOcclusion,
+    ] {
         let set = RaySet::generate(kind, &camera, 256, 192, tracers[0].as_ref(), &tris, 1);
         g.throughput(Throughput::Elements(set.len() as u64));
         for t in &tracers {
@@ -25,7 +32,10 @@ fn traversal(c: &mut Criterion) {
                     if kind.uses_any_hit() {
                         set.rays.iter().filter(|r| t.any_hit_fast(r)).count()
                     } else {
-                        set.rays.iter().filter(|r| t.closest_hit_fast(r).is_hit()).count()
+                        set.rays
+                            .iter()
+                            .filter(|r| t.closest_hit_fast(r).is_hit())
+                            .count()
                     }
                 })
             });

@@ -60,13 +60,14 @@ pub fn build_and_measure(
     let builder = util::builder(builder_name)?;
     let cost = CostModel::default();
     let input = BuildInput::new(tris, cost)?;
-    let (times, bvh) = util::with_threads(threads, || {
-        util::time_runs(runs, || builder.build(&input))
-    })?;
+    let (times, bvh) =
+        util::with_threads(threads, || util::time_runs(runs, || builder.build(&input)))?;
     let bvh = bvh?;
     let stats = bvh.stats();
     let epo = if with_epo {
-        Some(util::with_threads(threads, || sahara_metrics::epo(&bvh, tris, &cost))?)
+        Some(util::with_threads(threads, || {
+            sahara_metrics::epo(&bvh, tris, &cost)
+        })?)
     } else {
         None
     };

@@ -74,7 +74,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "hard cases ({:?}): {} builders, kernels {}, {} rayon threads",
         level,
         builders.len(),
-        kernels.iter().map(|k| k.name()).collect::<Vec<_>>().join(" "),
+        kernels
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(" "),
         rayon::current_num_threads()
     );
     let t = Instant::now();

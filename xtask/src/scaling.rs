@@ -20,7 +20,11 @@ pub struct Args {
     #[arg(long, default_value = "soup")]
     scene: String,
     /// Triangle counts.
-    #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1000,10000,100000,1000000"
+    )]
     sizes: Vec<usize>,
     /// Timed builds per size (the median is used).
     #[arg(long, default_value_t = 3)]
@@ -92,10 +96,7 @@ pub fn measure(
                 break;
             }
         }
-        let xy: Vec<(f64, f64)> = points
-            .iter()
-            .map(|(n, s)| (*n as f64, s.median))
-            .collect();
+        let xy: Vec<(f64, f64)> = points.iter().map(|(n, s)| (*n as f64, s.median)).collect();
         let large: Vec<(f64, f64)> = xy.iter().copied().filter(|p| p.0 >= 1e4).collect();
         out.push(Series {
             builder: name.clone(),

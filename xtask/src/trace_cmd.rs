@@ -95,7 +95,10 @@ pub fn measure_trace(
     set: &RaySet,
     threads: Option<usize>,
     passes: usize,
-) -> Result<(sahara_trace::Timing, sahara_trace::CountedTrace<sahara_trace::TraceResults>)> {
+) -> Result<(
+    sahara_trace::Timing,
+    sahara_trace::CountedTrace<sahara_trace::TraceResults>,
+)> {
     util::with_threads(threads, || {
         let timing = measure(passes.max(1), 1, || trace_set(tracer, set));
         let counted = trace_set_counted(tracer, set);
@@ -158,8 +161,9 @@ pub fn ray_set(
             seed,
         )),
         Err(_) => {
-            let rays = sahara_trace::read_rays(spec)
-                .with_context(|| format!("'{spec}' is neither primary|diffuse|ao nor a ray file"))?;
+            let rays = sahara_trace::read_rays(spec).with_context(|| {
+                format!("'{spec}' is neither primary|diffuse|ao nor a ray file")
+            })?;
             Ok(RaySet::from_rays(RayKind::Primary, rays))
         }
     }
@@ -173,7 +177,8 @@ pub fn trace_camera(c: &sahara_scene::Camera) -> sahara_trace::Camera {
 pub fn run(a: Args) -> Result<()> {
     let scene = util::load_scene(&a.scene)?;
     let builder = util::builder(&a.builder)?;
-    let input = sahara_build::BuildInput::new(&scene.triangles, sahara_build::CostModel::default())?;
+    let input =
+        sahara_build::BuildInput::new(&scene.triangles, sahara_build::CostModel::default())?;
     let bvh = util::with_threads(a.threads, || builder.build(&input))??;
     let tracer = make_tracer(&a.layout, &bvh, &scene.triangles)?;
     let set = ray_set(&a.rays, &scene, tracer.as_ref(), a.width, a.height, a.seed)?;
@@ -202,8 +207,14 @@ pub fn run(a: Args) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string(&r)?);
     } else {
-        println!("scene      {} ({} triangles), builder {}, layout {}", r.scene, r.triangles, r.builder, r.layout);
-        println!("rays       {} {} rays on {} threads", r.rays, r.ray_kind, r.threads);
+        println!(
+            "scene      {} ({} triangles), builder {}, layout {}",
+            r.scene, r.triangles, r.builder, r.layout
+        );
+        println!(
+            "rays       {} {} rays on {} threads",
+            r.rays, r.ray_kind, r.threads
+        );
         println!(
             "speed      {:.2} Mrays/s median (min {:.2}, max {:.2}) over {} passes",
             r.mrays_s.median, r.mrays_s.min, r.mrays_s.max, a.passes

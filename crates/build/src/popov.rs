@@ -204,7 +204,7 @@ impl Builder for PopovBuilder {
             frontier: c.frontier,
             max_leaf: c.max_leaf_size,
         };
-        Ok(engine::build(input, &params, &rater))
+        engine::build(input, &params, &rater)
     }
 }
 

@@ -32,7 +32,10 @@ pub fn entries() -> Vec<Entry> {
 
 /// The preset registered as `name`.
 pub fn by_name(name: &str) -> Option<Box<dyn Builder>> {
-    entries().into_iter().find(|e| e.name == name).map(|e| (e.make)())
+    entries()
+        .into_iter()
+        .find(|e| e.name == name)
+        .map(|e| (e.make)())
 }
 
 /// The registered names, in order.

@@ -145,6 +145,7 @@ impl Builder for SweepBuilder {
         if input.is_empty() {
             return Ok(Bvh::empty());
         }
+        check_size(input)?;
         let ctx = BuildCtx::new(
             input,
             self.config.max_leaf_size,
@@ -618,6 +619,14 @@ impl<'a> BuildCtx<'a> {
             parallel_threshold: parallel_threshold.max(1),
         }
     }
+}
+
+/// Node slots (`2N - 1`) are addressed by `u32`: rejects inputs too large for that.
+pub(crate) fn check_size(input: &BuildInput) -> Result<(), BuildError> {
+    if input.len() > (u32::MAX / 2) as usize {
+        return Err(BuildError::TooManyPrimitives(input.len()));
+    }
+    Ok(())
 }
 
 /// Marks a node slot that no node uses (removed by [`Storage::finish`]).

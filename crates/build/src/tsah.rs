@@ -250,7 +250,7 @@ impl Builder for TsahBuilder {
             max_leaf: c.max_leaf_size,
             temporary: c.temporary,
         };
-        Ok(engine::build(input, &params, &rater))
+        engine::build(input, &params, &rater)
     }
 }
 

@@ -71,8 +71,7 @@ fn fnv1a(data: &[u8]) -> u64 {
 impl Bvh {
     /// Writes the tree in the versioned format described in the module docs.
     pub fn save<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
-        let mut payload =
-            Vec::with_capacity(self.nodes.len() * 32 + self.prim_indices.len() * 4);
+        let mut payload = Vec::with_capacity(self.nodes.len() * 32 + self.prim_indices.len() * 4);
         for n in &self.nodes {
             for v in n.min {
                 payload.extend_from_slice(&v.to_le_bytes());
@@ -157,7 +156,9 @@ impl Bvh {
         if actual > expected {
             let mut rest = Vec::new();
             r.take(1 << 20).read_to_end(&mut rest)?;
-            return Err(LoadError::TrailingData(actual - expected + rest.len() as u64));
+            return Err(LoadError::TrailingData(
+                actual - expected + rest.len() as u64,
+            ));
         }
         if fnv1a(&payload) != checksum {
             return Err(LoadError::Checksum);

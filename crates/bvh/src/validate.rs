@@ -173,10 +173,7 @@ impl Bvh {
             return if self.prim_indices.is_empty() {
                 Ok(())
             } else {
-                Err(ValidationError::SlotUse {
-                    slot: 0,
-                    times: 0,
-                })
+                Err(ValidationError::SlotUse { slot: 0, times: 0 })
             };
         }
         let mut reached = vec![0u32; n];

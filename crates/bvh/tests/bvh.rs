@@ -9,7 +9,9 @@ fn scene() -> (Vec<Triangle>, Bvh) {
         })
         .collect();
     let b = |r: std::ops::Range<usize>| {
-        tris[r].iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()))
+        tris[r]
+            .iter()
+            .fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()))
     };
     // root(0) -> inner(1) [leaf 2: 0, leaf 3: 1], leaf 4: 2,3
     let bvh = Bvh {
@@ -113,7 +115,10 @@ fn save_load_round_trip_and_truncation() {
     // Every truncation is an error, never a panic.
     for cut in 0..bytes.len() {
         let err = Bvh::load(&mut &bytes[..cut]).unwrap_err();
-        assert!(matches!(err, LoadError::Truncated { .. }), "cut {cut}: {err}");
+        assert!(
+            matches!(err, LoadError::Truncated { .. }),
+            "cut {cut}: {err}"
+        );
         assert!(err.to_string().contains("truncated"), "{err}");
     }
     // Every single-bit corruption is an error or a structurally valid tree.
@@ -126,7 +131,10 @@ fn save_load_round_trip_and_truncation() {
     }
     let mut c = bytes.clone();
     c[45] ^= 1;
-    assert!(matches!(Bvh::load(&mut c.as_slice()), Err(LoadError::Checksum)));
+    assert!(matches!(
+        Bvh::load(&mut c.as_slice()),
+        Err(LoadError::Checksum)
+    ));
     let mut c = bytes.clone();
     c.push(0);
     assert!(matches!(
@@ -135,7 +143,10 @@ fn save_load_round_trip_and_truncation() {
     ));
     let mut c = bytes.clone();
     c[0] = b'X';
-    assert!(matches!(Bvh::load(&mut c.as_slice()), Err(LoadError::BadMagic)));
+    assert!(matches!(
+        Bvh::load(&mut c.as_slice()),
+        Err(LoadError::BadMagic)
+    ));
 }
 
 #[test]

@@ -183,9 +183,6 @@ mod tests {
         assert!(a.intersection(&b).is_empty());
         assert!(!a.overlaps(&b));
         let c = Aabb::new(Vec3A::splat(0.5), Vec3A::splat(3.0));
-        assert_eq!(
-            a.intersection(&c),
-            Aabb::new(Vec3A::splat(0.5), Vec3A::ONE)
-        );
+        assert_eq!(a.intersection(&c), Aabb::new(Vec3A::splat(0.5), Vec3A::ONE));
     }
 }

@@ -174,7 +174,11 @@ mod tests {
 
     #[test]
     fn clip_to_half_space() {
-        let t = Triangle::new(Vec3A::ZERO, Vec3A::new(2.0, 0.0, 0.0), Vec3A::new(0.0, 2.0, 0.0));
+        let t = Triangle::new(
+            Vec3A::ZERO,
+            Vec3A::new(2.0, 0.0, 0.0),
+            Vec3A::new(0.0, 2.0, 0.0),
+        );
         let b = Aabb::new(Vec3A::splat(-1.0), Vec3A::new(1.0, 1.0, 1.0));
         let p = clip_triangle(&t, &b);
         // Unit square minus the corner triangle above x + y = 2 (none inside): area 1.
@@ -195,9 +199,16 @@ mod tests {
 
     #[test]
     fn split_halves() {
-        let t = Triangle::new(Vec3A::ZERO, Vec3A::new(2.0, 0.0, 0.0), Vec3A::new(0.0, 2.0, 0.0));
+        let t = Triangle::new(
+            Vec3A::ZERO,
+            Vec3A::new(2.0, 0.0, 0.0),
+            Vec3A::new(0.0, 2.0, 0.0),
+        );
         let (l, r) = split_triangle_bounds(&t, 0, 1.0, &t.bounds());
         assert_eq!(l, Aabb::new(Vec3A::ZERO, Vec3A::new(1.0, 2.0, 0.0)));
-        assert_eq!(r, Aabb::new(Vec3A::new(1.0, 0.0, 0.0), Vec3A::new(2.0, 1.0, 0.0)));
+        assert_eq!(
+            r,
+            Aabb::new(Vec3A::new(1.0, 0.0, 0.0), Vec3A::new(2.0, 1.0, 0.0))
+        );
     }
 }

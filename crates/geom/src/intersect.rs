@@ -261,15 +261,30 @@ mod tests {
         // ... and in the minimum plane too (0 * inf = NaN must be ignored on both sides).
         let r = Ray::new(Vec3A::new(-1.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
         assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
-        let r = Ray::new(Vec3A::new(0.0, -1.0, -5.0), Vec3A::new(-0.0, 0.0, 1.0), 0.0, 100.0);
+        let r = Ray::new(
+            Vec3A::new(0.0, -1.0, -5.0),
+            Vec3A::new(-0.0, 0.0, 1.0),
+            0.0,
+            100.0,
+        );
         assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
         // A flat box behind the origin is found by a ray with tmin < 0.
         let flat_z = Aabb::new(Vec3A::new(-1.0, -1.0, -3.0), Vec3A::new(1.0, 1.0, -3.0));
-        let r = Ray::new(Vec3A::new(0.1, 0.2, 0.0), Vec3A::new(0.0, 0.0, 1.0), -10.0, 10.0);
+        let r = Ray::new(
+            Vec3A::new(0.1, 0.2, 0.0),
+            Vec3A::new(0.0, 0.0, 1.0),
+            -10.0,
+            10.0,
+        );
         assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &flat_z).is_some());
         // Flat box (zero thickness) is still hit.
         let flat = Aabb::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, 1.0, 0.0));
-        let r = Ray::new(Vec3A::new(0.3, 0.2, -5.0), Vec3A::new(0.0, 0.0, 1.0), 0.0, 100.0);
+        let r = Ray::new(
+            Vec3A::new(0.3, 0.2, -5.0),
+            Vec3A::new(0.0, 0.0, 1.0),
+            0.0,
+            100.0,
+        );
         assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &flat).is_some());
     }
 }

@@ -8,8 +8,8 @@ use sahara_scene::{
 };
 
 use crate::rays::{
-    aimed, axis_and_diagonal, corruptions, edge_and_vertex_targets, in_ball, inside_random,
-    probe, unit,
+    aimed, axis_and_diagonal, corruptions, edge_and_vertex_targets, in_ball, inside_random, probe,
+    unit,
 };
 use crate::{Case, Category, Level};
 
@@ -114,7 +114,12 @@ fn watertight_cases(level: Level, v: &mut Vec<Case>) {
     // wide; the vertices are rounded independently but shared by index, so the mesh is still
     // closed.
     let offsets: &[(f32, f32, u32)] = if fast {
-        &[(1e4, 1.0, 3), (1e5, 1.0, 4), (1e6, 100.0, 3), (1e7, 1000.0, 3)]
+        &[
+            (1e4, 1.0, 3),
+            (1e5, 0.25, 3),
+            (1e6, 100.0, 3),
+            (1e7, 1000.0, 3),
+        ]
     } else {
         &[
             (1e4, 1.0, 5),
@@ -166,7 +171,7 @@ fn watertight_cases(level: Level, v: &mut Vec<Case>) {
     }
     // UV spheres: fans of many thin triangles meeting at the poles.
     let uvs: &[(f32, f32, u32, u32)] = if fast {
-        &[(0.0, 1.0, 48, 24), (1e6, 100.0, 64, 32)]
+        &[(0.0, 1.0, 48, 24), (1e6, 100.0, 32, 16)]
     } else {
         &[(0.0, 1.0, 720, 360), (1e5, 10.0, 1000, 500)]
     };
@@ -216,7 +221,7 @@ fn bad_ray_cases(level: Level, v: &mut Vec<Case>) {
     v.push(case);
 
     // A triangle soup probed from outside (hits and misses), corrupted.
-    let tris = soup(2000, 3).triangles();
+    let tris = soup(if level == Level::Fast { 1000 } else { 20_000 }, 3).triangles();
     let base = probe(&tris, n_base, &mut rng);
     let mut case = base_case(
         "bad-rays/soup".to_string(),
@@ -232,7 +237,11 @@ fn bad_ray_cases(level: Level, v: &mut Vec<Case>) {
     let mut base = axis_and_diagonal(Vec3A::ZERO);
     // Rays lying in the face planes and along the edges, from outside.
     for d in [Vec3A::X, Vec3A::Y, Vec3A::Z] {
-        for o in [Vec3A::new(1.0, 1.0, 1.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 1.0)] {
+        for o in [
+            Vec3A::new(1.0, 1.0, 1.0),
+            Vec3A::new(1.0, -1.0, 0.0),
+            Vec3A::new(0.0, 1.0, 1.0),
+        ] {
             base.push(Ray::new(o - d * 5.0, d, 0.0, f32::INFINITY));
         }
     }
@@ -244,6 +253,48 @@ fn bad_ray_cases(level: Level, v: &mut Vec<Case>) {
     );
     case.rays = bad_rays_from(&base);
     case.must_hit = 26; // the axis and diagonal rays from the centre
+    v.push(case);
+
+    // Rays ending (tmax = 1) or starting (tmin = 1) exactly on a surface, as shadow rays
+    // towards a point on a light or rays leaving a surface do: whether the surface counts is
+    // up to rounding, but every kernel must decide like brute force. Axis-aligned triangles
+    // give flat leaf boxes whose entry distance is the hit distance.
+    let n = if level == Level::Fast { 300 } else { 3000 };
+    let mut tris = Vec::with_capacity(n);
+    for i in 0..n {
+        let mut t = random_triangle(&mut rng, Vec3A::ZERO, 1.0);
+        match i % 4 {
+            0 => t.v.iter_mut().for_each(|p| p.x = 5.0),
+            1 => t.v.iter_mut().for_each(|p| p.y = -3.0),
+            2 => t.v.iter_mut().for_each(|p| p.z = 0.1),
+            _ => {}
+        }
+        tris.push(t);
+    }
+    let n_rays = if level == Level::Fast { 3000 } else { 30_000 };
+    let mut rays = Vec::with_capacity(n_rays);
+    for i in 0..n_rays {
+        let t = &tris[rng.below(tris.len() as u32) as usize];
+        let (mut a, mut b) = (rng.next_f32(), rng.next_f32());
+        if a + b > 1.0 {
+            (a, b) = (1.0 - a, 1.0 - b);
+        }
+        let target = t.point(a, b);
+        let origin = in_ball(&mut rng, Vec3A::ZERO, 8.0);
+        let d = target - origin;
+        rays.push(if i % 2 == 0 {
+            Ray::new(origin, d, 0.0, 1.0)
+        } else {
+            Ray::new(origin, d, 1.0, f32::INFINITY)
+        });
+    }
+    let mut case = base_case(
+        "bad-rays/tmax-on-surface".to_string(),
+        Category::BadRays,
+        "rays whose tmax or tmin lies exactly on a surface (shadow rays), flat leaf boxes",
+        tris,
+    );
+    case.rays = rays;
     v.push(case);
 }
 
@@ -264,7 +315,13 @@ fn random_triangle(rng: &mut Pcg32, center: Vec3A, size: f32) -> Triangle {
 
 fn scaled(tris: &[Triangle], s: f32, offset: Vec3A) -> Vec<Triangle> {
     tris.iter()
-        .map(|t| Triangle::new(t.v[0] * s + offset, t.v[1] * s + offset, t.v[2] * s + offset))
+        .map(|t| {
+            Triangle::new(
+                t.v[0] * s + offset,
+                t.v[1] * s + offset,
+                t.v[2] * s + offset,
+            )
+        })
         .collect()
 }
 
@@ -283,7 +340,7 @@ fn geometry(level: Level, name: &str, note: &str, tris: Vec<Triangle>, seed: u64
 }
 
 fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
-    let n = if level == Level::Fast { 1000 } else { 20_000 };
+    let n = if level == Level::Fast { 500 } else { 20_000 };
     let mut rng = Pcg32::new(77, 41);
 
     // Every other triangle has zero area (repeated vertex, or collinear vertices).
@@ -297,30 +354,62 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
             }
         })
         .collect();
-    v.push(geometry(level, "zero-area-mix", "half the triangles have zero area", tris, 1));
+    v.push(geometry(
+        level,
+        "zero-area-mix",
+        "half the triangles have zero area",
+        tris,
+        1,
+    ));
 
     // Only collinear triangles on random lines (thin boxes) and on the x axis (zero-area
     // boxes).
     let tris: Vec<Triangle> = (0..n)
         .map(|i| {
-            let a = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0));
+            let a = Vec3A::new(
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+            );
             let d = unit(&mut rng) * 0.1;
             if i % 2 == 0 {
                 Triangle::new(a, a + d, a + d * 3.0)
             } else {
                 let x = a.x;
-                Triangle::new(Vec3A::new(x, 0.0, 0.0), Vec3A::new(x + 0.1, 0.0, 0.0), Vec3A::new(x + 0.05, 0.0, 0.0))
+                Triangle::new(
+                    Vec3A::new(x, 0.0, 0.0),
+                    Vec3A::new(x + 0.1, 0.0, 0.0),
+                    Vec3A::new(x + 0.05, 0.0, 0.0),
+                )
             }
         })
         .collect();
-    v.push(geometry(level, "collinear", "every triangle is a segment (some on the x axis)", tris, 2));
+    v.push(geometry(
+        level,
+        "collinear",
+        "every triangle is a segment (some on the x axis)",
+        tris,
+        2,
+    ));
 
     // One triangle repeated: every hit is an exact tie (lowest index wins).
-    let t = Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0));
-    v.push(geometry(level, "duplicates", "one triangle repeated n times (exact ties)", vec![t; n], 3));
+    let t = Triangle::new(
+        Vec3A::new(-1.0, -1.0, 0.0),
+        Vec3A::new(1.0, -1.0, 0.0),
+        Vec3A::new(0.0, 1.0, 0.0),
+    );
+    v.push(geometry(
+        level,
+        "duplicates",
+        "one triangle repeated n times (exact ties)",
+        vec![t; n],
+        3,
+    ));
 
     // Duplicates with rotated and reversed vertex orders.
-    let distinct: Vec<Triangle> = (0..n / 10).map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1.0)).collect();
+    let distinct: Vec<Triangle> = (0..n / 10)
+        .map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1.0))
+        .collect();
     let tris: Vec<Triangle> = (0..n)
         .map(|i| {
             let t = distinct[i % distinct.len()];
@@ -333,10 +422,16 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
             }
         })
         .collect();
-    v.push(geometry(level, "duplicates-permuted", "triangles repeated with permuted vertex orders", tris, 4));
+    v.push(geometry(
+        level,
+        "duplicates-permuted",
+        "triangles repeated with permuted vertex orders",
+        tris,
+        4,
+    ));
 
     // Index-degenerate triangles of an indexed mesh, mixed with its real triangles.
-    let mut mesh = tessellated_sphere(Vec3A::ZERO, 1.0, 3);
+    let mut mesh = tessellated_sphere(Vec3A::ZERO, 1.0, if level == Level::Fast { 2 } else { 5 });
     let nv = mesh.positions.len() as u32;
     for i in 0..(n as u32 / 2) {
         let (a, b) = (i % nv, (i * 7 + 3) % nv);
@@ -346,18 +441,42 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
             _ => [a, a, a],
         });
     }
-    v.push(geometry(level, "index-degenerate", "a sphere plus triangles that repeat a vertex index", mesh.triangles(), 5));
+    v.push(geometry(
+        level,
+        "index-degenerate",
+        "a sphere plus triangles that repeat a vertex index",
+        mesh.triangles(),
+        5,
+    ));
 
     // Everything at one point.
     let p = Vec3A::new(1.0, 2.0, 3.0);
-    v.push(geometry(level, "one-point", "n triangles collapsed onto one point", vec![Triangle::new(p, p, p); n], 6));
-    v.push(geometry(level, "one-point-origin", "n triangles collapsed onto the origin", vec![Triangle::new(Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO); n], 7));
+    v.push(geometry(
+        level,
+        "one-point",
+        "n triangles collapsed onto one point",
+        vec![Triangle::new(p, p, p); n],
+        6,
+    ));
+    v.push(geometry(
+        level,
+        "one-point-origin",
+        "n triangles collapsed onto the origin",
+        vec![Triangle::new(Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO); n],
+        7,
+    ));
 
     // A fan: all triangles share one vertex, their bounds centroids are spread.
     let tris: Vec<Triangle> = (0..n)
         .map(|_| Triangle::new(p, p + unit(&mut rng), p + unit(&mut rng)))
         .collect();
-    v.push(geometry(level, "fan", "n triangles sharing one vertex", tris, 8));
+    v.push(geometry(
+        level,
+        "fan",
+        "n triangles sharing one vertex",
+        tris,
+        8,
+    ));
 
     // Triangles whose bounds share one centroid (nested, mirrored): centroid splits cannot
     // separate them.
@@ -368,24 +487,84 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
             Triangle::new(p - Vec3A::splat(s), p + Vec3A::splat(s), p + d * (0.5 * s))
         })
         .collect();
-    v.push(geometry(level, "same-centroid", "nested triangles with one common bounds centroid", tris, 9));
+    v.push(geometry(
+        level,
+        "same-centroid",
+        "nested triangles with one common bounds centroid",
+        tris,
+        9,
+    ));
 
     // Extreme coordinates.
-    let unit_soup: Vec<Triangle> = (0..n).map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1.0)).collect();
-    v.push(geometry(level, "coords-1e30", "a soup scaled to +-1e30", scaled(&unit_soup, 1e30, Vec3A::ZERO), 10));
-    v.push(geometry(level, "coords-near-1e30", "a soup of size 1e28 around (1e30, -1e30, 1e30)", scaled(&unit_soup, 1e28, Vec3A::new(1e30, -1e30, 1e30)), 11));
-    v.push(geometry(level, "coords-1e38", "a soup scaled to +-1e38 (extents overflow f32)", scaled(&unit_soup, 1e38, Vec3A::ZERO), 12));
-    v.push(geometry(level, "coords-1e-30", "a soup scaled to +-1e-30 (areas underflow)", scaled(&unit_soup, 1e-30, Vec3A::ZERO), 13));
-    v.push(geometry(level, "coords-near-1e-30", "a soup of size 1e-32 around (1e-30, -1e-30, 1e-30)", scaled(&unit_soup, 1e-32, Vec3A::new(1e-30, -1e-30, 1e-30)), 14));
-    v.push(geometry(level, "coords-denormal", "a soup scaled to +-1e-40 (subnormal coordinates)", scaled(&unit_soup, 1e-40, Vec3A::ZERO), 15));
+    let unit_soup: Vec<Triangle> = (0..n)
+        .map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1.0))
+        .collect();
+    v.push(geometry(
+        level,
+        "coords-1e30",
+        "a soup scaled to +-1e30",
+        scaled(&unit_soup, 1e30, Vec3A::ZERO),
+        10,
+    ));
+    v.push(geometry(
+        level,
+        "coords-near-1e30",
+        "a soup of size 1e28 around (1e30, -1e30, 1e30)",
+        scaled(&unit_soup, 1e28, Vec3A::new(1e30, -1e30, 1e30)),
+        11,
+    ));
+    v.push(geometry(
+        level,
+        "coords-1e38",
+        "a soup scaled to +-1e38 (extents overflow f32)",
+        scaled(&unit_soup, 1e38, Vec3A::ZERO),
+        12,
+    ));
+    v.push(geometry(
+        level,
+        "coords-1e-30",
+        "a soup scaled to +-1e-30 (areas underflow)",
+        scaled(&unit_soup, 1e-30, Vec3A::ZERO),
+        13,
+    ));
+    v.push(geometry(
+        level,
+        "coords-near-1e-30",
+        "a soup of size 1e-32 around (1e-30, -1e-30, 1e-30)",
+        scaled(&unit_soup, 1e-32, Vec3A::new(1e-30, -1e-30, 1e-30)),
+        14,
+    ));
+    v.push(geometry(
+        level,
+        "coords-denormal",
+        "a soup scaled to +-1e-40 (subnormal coordinates)",
+        scaled(&unit_soup, 1e-40, Vec3A::ZERO),
+        15,
+    ));
 
     // Mixed scales: tiny triangles next to huge ones.
-    let mut tris: Vec<Triangle> = (0..n / 2).map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1e-6)).collect();
+    let mut tris: Vec<Triangle> = (0..n / 2)
+        .map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1e-6))
+        .collect();
     tris.extend((0..n / 2).map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1e6)));
-    v.push(geometry(level, "mixed-scales", "triangles of size 1e-6 next to triangles of size 1e6", tris, 16));
-    let mut tris: Vec<Triangle> = (0..n / 2).map(|_| random_triangle(&mut rng, Vec3A::splat(1e6), 1e-6)).collect();
+    v.push(geometry(
+        level,
+        "mixed-scales",
+        "triangles of size 1e-6 next to triangles of size 1e6",
+        tris,
+        16,
+    ));
+    let mut tris: Vec<Triangle> = (0..n / 2)
+        .map(|_| random_triangle(&mut rng, Vec3A::splat(1e6), 1e-6))
+        .collect();
     tris.extend((0..n / 2).map(|_| random_triangle(&mut rng, Vec3A::ZERO, 1e6)));
-    v.push(geometry(level, "mixed-scales-far", "1e-6 triangles at 1e6 (below the ulp: they collapse) among 1e6 triangles", tris, 17));
+    v.push(geometry(
+        level,
+        "mixed-scales-far",
+        "1e-6 triangles at 1e6 (below the ulp: they collapse) among 1e6 triangles",
+        tris,
+        17,
+    ));
 
     // Flat scenes.
     let side = ((n / 2) as f32).sqrt().ceil() as u32;
@@ -398,16 +577,47 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
             flat.push_triangle(q(0.0, 0.0), q(1.0, 1.0), q(0.0, 1.0));
         }
     }
-    let mut case = geometry(level, "flat-z", "a grid of quads in the plane z = 0", flat.triangles(), 18);
+    let mut case = geometry(
+        level,
+        "flat-z",
+        "a grid of quads in the plane z = 0",
+        flat.triangles(),
+        18,
+    );
     // Rays inside the plane (edge-on: nothing to hit) and straight down onto grid vertices
     // and edges.
     for i in 0..64 {
         let x = (i % side) as f32;
-        case.rays.push(Ray::new(Vec3A::new(-1.0, x + 0.5, 0.0), Vec3A::X, 0.0, f32::INFINITY));
-        case.rays.push(Ray::new(Vec3A::new(x, -1.0, 0.0), Vec3A::Y, 0.0, f32::INFINITY));
-        case.rays.push(Ray::new(Vec3A::new(x, x, 5.0), -Vec3A::Z, 0.0, f32::INFINITY));
-        case.rays.push(Ray::new(Vec3A::new(x + 0.5, x, 5.0), -Vec3A::Z, 0.0, f32::INFINITY));
-        case.rays.push(Ray::new(Vec3A::new(x + 0.5, x + 0.5, 5.0), -Vec3A::Z, 0.0, f32::INFINITY));
+        case.rays.push(Ray::new(
+            Vec3A::new(-1.0, x + 0.5, 0.0),
+            Vec3A::X,
+            0.0,
+            f32::INFINITY,
+        ));
+        case.rays.push(Ray::new(
+            Vec3A::new(x, -1.0, 0.0),
+            Vec3A::Y,
+            0.0,
+            f32::INFINITY,
+        ));
+        case.rays.push(Ray::new(
+            Vec3A::new(x, x, 5.0),
+            -Vec3A::Z,
+            0.0,
+            f32::INFINITY,
+        ));
+        case.rays.push(Ray::new(
+            Vec3A::new(x + 0.5, x, 5.0),
+            -Vec3A::Z,
+            0.0,
+            f32::INFINITY,
+        ));
+        case.rays.push(Ray::new(
+            Vec3A::new(x + 0.5, x + 0.5, 5.0),
+            -Vec3A::Z,
+            0.0,
+            f32::INFINITY,
+        ));
     }
     v.push(case);
     let tris: Vec<Triangle> = (0..n)
@@ -419,23 +629,51 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
             t
         })
         .collect();
-    v.push(geometry(level, "flat-x", "random triangles in the plane x = 5", tris, 19));
+    v.push(geometry(
+        level,
+        "flat-x",
+        "random triangles in the plane x = 5",
+        tris,
+        19,
+    ));
 
     // Long slivers.
     let tris: Vec<Triangle> = (0..n)
         .map(|_| {
-            let a = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0));
+            let a = Vec3A::new(
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+            );
             let d = unit(&mut rng) * 2.0;
             let e = unit(&mut rng) * 1e-7;
             Triangle::new(a, a + d, a + e)
         })
         .collect();
-    v.push(geometry(level, "slivers", "long triangles of width 1e-7", tris, 20));
+    v.push(geometry(
+        level,
+        "slivers",
+        "long triangles of width 1e-7",
+        tris,
+        20,
+    ));
 
     // Tiny scenes.
     v.push(geometry(level, "single", "one triangle", vec![t], 21));
-    v.push(geometry(level, "single-degenerate", "one zero-area triangle", vec![Triangle::new(p, p, p + Vec3A::X)], 22));
-    v.push(geometry(level, "two-identical", "the same triangle twice", vec![t, t], 23));
+    v.push(geometry(
+        level,
+        "single-degenerate",
+        "one zero-area triangle",
+        vec![Triangle::new(p, p, p + Vec3A::X)],
+        22,
+    ));
+    v.push(geometry(
+        level,
+        "two-identical",
+        "the same triangle twice",
+        vec![t, t],
+        23,
+    ));
     let mut case = geometry(level, "empty", "no triangle", Vec::new(), 24);
     case.rays.extend(axis_and_diagonal(Vec3A::ZERO));
     v.push(case);
@@ -446,18 +684,19 @@ fn bad_geometry_cases(level: Level, v: &mut Vec<Case>) {
 
 fn non_finite_cases(v: &mut Vec<Case>) {
     let tris = soup(1000, 9).triangles();
-    let mut push = |name: &str, mut tris: Vec<Triangle>, at: usize, vertex: usize, axis: usize, value: f32| {
-        tris[at].v[vertex][axis] = value;
-        let mut case = base_case(
-            format!("non-finite/{name}"),
-            Category::NonFinite,
-            "a NaN or infinite coordinate: BuildInput::new must return BuildError::NonFinite",
-            tris,
-        );
-        case.expect_non_finite = Some(at);
-        case.check_determinism = false;
-        v.push(case);
-    };
+    let mut push =
+        |name: &str, mut tris: Vec<Triangle>, at: usize, vertex: usize, axis: usize, value: f32| {
+            tris[at].v[vertex][axis] = value;
+            let mut case = base_case(
+                format!("non-finite/{name}"),
+                Category::NonFinite,
+                "a NaN or infinite coordinate: BuildInput::new must return BuildError::NonFinite",
+                tris,
+            );
+            case.expect_non_finite = Some(at);
+            case.check_determinism = false;
+            v.push(case);
+        };
     let n = tris.len();
     push("nan-first", tris.clone(), 0, 0, 0, f32::NAN);
     push("inf-middle", tris.clone(), n / 2, 2, 2, f32::INFINITY);
@@ -472,7 +711,11 @@ fn non_finite_cases(v: &mut Vec<Case>) {
 fn camera_rays(cam: &Camera, n: u32) -> Vec<Ray> {
     let f = (cam.target - cam.eye).normalize();
     let r = f.cross(cam.up).normalize_or_zero();
-    let r = if r == Vec3A::ZERO { f.any_orthonormal_vector() } else { r };
+    let r = if r == Vec3A::ZERO {
+        f.any_orthonormal_vector()
+    } else {
+        r
+    };
     let u = r.cross(f);
     let tan = (cam.fov_y_degrees.to_radians() * 0.5).tan();
     let mut rays = Vec::with_capacity((n * n) as usize);
@@ -489,7 +732,7 @@ fn camera_rays(cam: &Camera, n: u32) -> Vec<Ray> {
 fn procedural_cases(level: Level, v: &mut Vec<Case>) {
     for (k, p) in Procedural::ALL.into_iter().enumerate() {
         let (size, grid, n_probe) = match level {
-            Level::Fast => (3000, 32, 1024),
+            Level::Fast => (2000, 32, 1024),
             Level::Full => (p.default_size(), 100, 8192),
         };
         let scene = p.scene(size, DEFAULT_SEED);

@@ -92,7 +92,12 @@ fn base64(data: &[u8]) -> String {
 /// indices.
 fn gltf_bin() -> Vec<u8> {
     let mut b = Vec::new();
-    for p in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+    for p in [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ] {
         for c in p {
             b.extend_from_slice(&c.to_le_bytes());
         }
@@ -199,7 +204,10 @@ pub fn valid_glb() -> Vec<u8> {
 
 /// A small valid glTF JSON with its buffer embedded as a `data:` URI.
 pub fn valid_gltf() -> Vec<u8> {
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_bin()));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64(&gltf_bin())
+    );
     gltf_json(&GltfParams::default(), Some(&uri)).into_bytes()
 }
 
@@ -255,14 +263,21 @@ fn push(v: &mut Vec<Input>, target: Target, name: impl Into<String>, data: Vec<u
 fn generic(v: &mut Vec<Input>, t: Target, tag: &str, valid: &[u8], max_flips: usize, seed: u64) {
     push(v, t, format!("{tag}: valid"), valid.to_vec());
     for len in 0..valid.len() {
-        push(v, t, format!("{tag}: truncate {len}"), valid[..len].to_vec());
+        push(
+            v,
+            t,
+            format!("{tag}: truncate {len}"),
+            valid[..len].to_vec(),
+        );
     }
     let bits = valid.len() * 8;
     let mut rng = Pcg32::new(seed, 1);
     let flips: Vec<usize> = if bits <= max_flips {
         (0..bits).collect()
     } else {
-        (0..max_flips).map(|_| rng.below(bits as u32) as usize).collect()
+        (0..max_flips)
+            .map(|_| rng.below(bits as u32) as usize)
+            .collect()
     };
     for bit in flips {
         let mut d = valid.to_vec();
@@ -299,20 +314,47 @@ fn obj_specials(v: &mut Vec<Input>) {
     let cases: Vec<(&str, String)> = vec![
         ("empty", String::new()),
         ("only vertices", tri.to_string()),
-        ("nan vertex", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
-        ("inf vertex", "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
-        ("overflowing vertex", "v 1e39 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
-        ("huge exponent", "v 1e99999999999 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
-        ("underflowing vertex", "v 1e-50 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
-        ("hex vertex", "v 0x10 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
-        ("two coordinates", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into()),
+        (
+            "nan vertex",
+            "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
+        (
+            "inf vertex",
+            "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
+        (
+            "overflowing vertex",
+            "v 1e39 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
+        (
+            "huge exponent",
+            "v 1e99999999999 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
+        (
+            "underflowing vertex",
+            "v 1e-50 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
+        (
+            "hex vertex",
+            "v 0x10 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
+        (
+            "two coordinates",
+            "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+        ),
         ("index 0", format!("{tri}f 0 1 2\n")),
         ("index past end", format!("{tri}f 1 2 4\n")),
         ("index u32 max", format!("{tri}f 1 2 4294967295\n")),
         ("index u32 max + 1", format!("{tri}f 1 2 4294967296\n")),
-        ("index i64 overflow", format!("{tri}f 1 2 99999999999999999999999\n")),
+        (
+            "index i64 overflow",
+            format!("{tri}f 1 2 99999999999999999999999\n"),
+        ),
         ("negative index too far", format!("{tri}f -1 -2 -4\n")),
-        ("negative i64 min", format!("{tri}f 1 2 -9223372036854775808\n")),
+        (
+            "negative i64 min",
+            format!("{tri}f 1 2 -9223372036854775808\n"),
+        ),
         ("index with sign only", format!("{tri}f 1 2 -\n")),
         ("index slashes only", format!("{tri}f 1 2 //\n")),
         ("index trailing slash", format!("{tri}f 1/ 2/ 3/\n")),
@@ -321,7 +363,10 @@ fn obj_specials(v: &mut Vec<Input>) {
         ("face of one", format!("{tri}f 1\n")),
         ("bare f", format!("{tri}f\n")),
         ("continuation at end", format!("{tri}f 1 2 3 \\")),
-        ("continuation chain", format!("{tri}f 1 \\\n\\\n\\\n\\\n 2 3\n")),
+        (
+            "continuation chain",
+            format!("{tri}f 1 \\\n\\\n\\\n\\\n 2 3\n"),
+        ),
         ("nul bytes", format!("{tri}f 1 2 3\0\n\0\0")),
         ("only comments", "# a\n# b\n".into()),
         ("crlf", format!("{tri}f 1 2 3\r\n").replace('\n', "\r\n")),
@@ -335,13 +380,29 @@ fn obj_specials(v: &mut Vec<Input>) {
         push(v, t, format!("obj special: {name}"), s.into_bytes());
     }
     // Invalid UTF-8 in several places.
-    push(v, t, "obj special: invalid utf-8 line", b"v 0 0 0\nv 1 0 0\xff\xfe\nv 0 1 0\nf 1 2 3\n".to_vec());
-    push(v, t, "obj special: invalid utf-8 comment", b"# \xff\xfe\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec());
+    push(
+        v,
+        t,
+        "obj special: invalid utf-8 line",
+        b"v 0 0 0\nv 1 0 0\xff\xfe\nv 0 1 0\nf 1 2 3\n".to_vec(),
+    );
+    push(
+        v,
+        t,
+        "obj special: invalid utf-8 comment",
+        b"# \xff\xfe\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec(),
+    );
     // A polygon of 100 000 vertices (a fan of 99 998 triangles): proportional work.
     let mut big = String::from(tri);
     big.push('f');
     for i in 0..100_000 {
-        big.push_str(if i % 3 == 0 { " 1" } else if i % 3 == 1 { " 2" } else { " 3" });
+        big.push_str(if i % 3 == 0 {
+            " 1"
+        } else if i % 3 == 1 {
+            " 2"
+        } else {
+            " 3"
+        });
     }
     big.push('\n');
     push(v, t, "obj special: 100k-vertex polygon", big.into_bytes());
@@ -393,7 +454,12 @@ fn gltf_specials(v: &mut Vec<Input>) {
     push(v, t, "glb header: 4 GB total and JSON chunk", d);
     push(v, t, "glb header: magic only", b"glTF".to_vec());
     push(v, t, "glb header: 12 bytes", valid[..12].to_vec());
-    push(v, t, "glb: no BIN chunk", glb(&gltf_json(&GltfParams::default(), None), None));
+    push(
+        v,
+        t,
+        "glb: no BIN chunk",
+        glb(&gltf_json(&GltfParams::default(), None), None),
+    );
     push(v, t, "glb: three chunks", {
         let mut d = glb(&gltf_json(&GltfParams::default(), None), Some(&bin));
         d.extend_from_slice(&4u32.to_le_bytes());
@@ -405,42 +471,149 @@ fn gltf_specials(v: &mut Vec<Input>) {
     });
 
     // JSON fields.
-    let huge = ["4294967295", "18446744073709551615", "1e300", "-1", "0", "1.5", "\"4\"", "null"];
+    let huge = [
+        "4294967295",
+        "18446744073709551615",
+        "1e300",
+        "-1",
+        "0",
+        "1.5",
+        "\"4\"",
+        "null",
+    ];
     let mut variants: Vec<(String, GltfParams)> = Vec::new();
     for h in huge {
         let p = GltfParams::default();
-        variants.push((format!("POSITION count {h}"), GltfParams { pos_count: h.into(), ..p.clone() }));
-        variants.push((format!("index count {h}"), GltfParams { idx_count: h.into(), ..p.clone() }));
-        variants.push((format!("view offset {h}"), GltfParams { pos_view_offset: h.into(), ..p.clone() }));
-        variants.push((format!("view length {h}"), GltfParams { pos_view_length: h.into(), ..p.clone() }));
-        variants.push((format!("accessor offset {h}"), GltfParams { acc_offset: h.into(), ..p.clone() }));
-        variants.push((format!("buffer length {h}"), GltfParams { buffer_length: h.into(), ..p.clone() }));
-        variants.push((format!("stride {h}"), GltfParams { stride: Some(h.into()), ..p.clone() }));
-        variants.push((format!("mode {h}"), GltfParams { mode: h.into(), ..p }));
+        variants.push((
+            format!("POSITION count {h}"),
+            GltfParams {
+                pos_count: h.into(),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("index count {h}"),
+            GltfParams {
+                idx_count: h.into(),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("view offset {h}"),
+            GltfParams {
+                pos_view_offset: h.into(),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("view length {h}"),
+            GltfParams {
+                pos_view_length: h.into(),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("accessor offset {h}"),
+            GltfParams {
+                acc_offset: h.into(),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("buffer length {h}"),
+            GltfParams {
+                buffer_length: h.into(),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("stride {h}"),
+            GltfParams {
+                stride: Some(h.into()),
+                ..p.clone()
+            },
+        ));
+        variants.push((
+            format!("mode {h}"),
+            GltfParams {
+                mode: h.into(),
+                ..p
+            },
+        ));
     }
-    for (name, value) in [("u8", "5121"), ("u32", "5125"), ("f32", "5126"), ("i16", "5122"), ("bogus", "1")] {
-        variants.push((format!("index component {name}"), GltfParams { idx_component: value.into(), ..Default::default() }));
+    for (name, value) in [
+        ("u8", "5121"),
+        ("u32", "5125"),
+        ("f32", "5126"),
+        ("i16", "5122"),
+        ("bogus", "1"),
+    ] {
+        variants.push((
+            format!("index component {name}"),
+            GltfParams {
+                idx_component: value.into(),
+                ..Default::default()
+            },
+        ));
     }
     for m in ["0", "1", "5", "6", "7"] {
-        variants.push((format!("mode {m}"), GltfParams { mode: m.into(), ..Default::default() }));
+        variants.push((
+            format!("mode {m}"),
+            GltfParams {
+                mode: m.into(),
+                ..Default::default()
+            },
+        ));
     }
     for (name, nodes, scene) in [
-        ("node cycle", r#"[{"mesh":0,"children":[1]},{"children":[0]}]"#, "[0]"),
+        (
+            "node cycle",
+            r#"[{"mesh":0,"children":[1]},{"children":[0]}]"#,
+            "[0]",
+        ),
         ("self child", r#"[{"mesh":0,"children":[0]}]"#, "[0]"),
-        ("shared node", r#"[{"children":[2,2,2,2]},{"children":[0,0,0,0]},{"mesh":0}]"#, "[1]"),
-        ("node index out of range", r#"[{"mesh":0,"children":[7]}]"#, "[0]"),
+        (
+            "shared node",
+            r#"[{"children":[2,2,2,2]},{"children":[0,0,0,0]},{"mesh":0}]"#,
+            "[1]",
+        ),
+        (
+            "node index out of range",
+            r#"[{"mesh":0,"children":[7]}]"#,
+            "[0]",
+        ),
         ("scene node out of range", r#"[{"mesh":0}]"#, "[3]"),
         ("mesh out of range", r#"[{"mesh":5}]"#, "[0]"),
-        ("nan translation", r#"[{"mesh":0,"translation":[1e400,0,0]}]"#, "[0]"),
+        (
+            "nan translation",
+            r#"[{"mesh":0,"translation":[1e400,0,0]}]"#,
+            "[0]",
+        ),
         ("zero scale", r#"[{"mesh":0,"scale":[0,0,0]}]"#, "[0]"),
-        ("huge scale", r#"[{"mesh":0,"scale":[1e38,1e38,1e38]}]"#, "[0]"),
-        ("singular matrix", r#"[{"mesh":0,"matrix":[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]}]"#, "[0]"),
-        ("bad quaternion", r#"[{"mesh":0,"rotation":[0,0,0,0]}]"#, "[0]"),
+        (
+            "huge scale",
+            r#"[{"mesh":0,"scale":[1e38,1e38,1e38]}]"#,
+            "[0]",
+        ),
+        (
+            "singular matrix",
+            r#"[{"mesh":0,"matrix":[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]}]"#,
+            "[0]",
+        ),
+        (
+            "bad quaternion",
+            r#"[{"mesh":0,"rotation":[0,0,0,0]}]"#,
+            "[0]",
+        ),
         ("no scene nodes", r#"[{"mesh":0}]"#, "[]"),
     ] {
         variants.push((
             name.to_string(),
-            GltfParams { nodes: nodes.into(), scene_nodes: scene.into(), ..Default::default() },
+            GltfParams {
+                nodes: nodes.into(),
+                scene_nodes: scene.into(),
+                ..Default::default()
+            },
         ));
     }
     // A node DAG: each level lists the next twice, 2^20 paths to the mesh from 21 nodes.
@@ -449,20 +622,37 @@ fn gltf_specials(v: &mut Vec<Input>) {
         dag.push_str(&format!(r#"{{"children":[{0},{0}]}},"#, i + 1));
     }
     dag.push_str(r#"{"mesh":0}]"#);
-    variants.push(("node DAG 2^20 paths".into(), GltfParams { nodes: dag, ..Default::default() }));
+    variants.push((
+        "node DAG 2^20 paths".into(),
+        GltfParams {
+            nodes: dag,
+            ..Default::default()
+        },
+    ));
     // A chain of 5000 nodes (deep hierarchy).
     let mut chain = String::from("[");
     for i in 0..5000 {
         chain.push_str(&format!(r#"{{"children":[{}]}},"#, i + 1));
     }
     chain.push_str(r#"{"mesh":0}]"#);
-    variants.push(("node chain 5000".into(), GltfParams { nodes: chain, ..Default::default() }));
+    variants.push((
+        "node chain 5000".into(),
+        GltfParams {
+            nodes: chain,
+            ..Default::default()
+        },
+    ));
     variants.push((
         "required extension".into(),
         GltfParams { extra: r#","extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"]"#.into(), ..Default::default() },
     ));
     for (name, p) in variants {
-        push(v, t, format!("glb json: {name}"), glb(&gltf_json(&p, None), Some(&bin)));
+        push(
+            v,
+            t,
+            format!("glb json: {name}"),
+            glb(&gltf_json(&p, None), Some(&bin)),
+        );
     }
     // Buffers by URI.
     let b64 = base64(&bin);
@@ -471,9 +661,18 @@ fn gltf_specials(v: &mut Vec<Input>) {
         ("absolute path", "/etc/passwd".to_string()),
         ("parent path", "../../../../etc/passwd".to_string()),
         ("http", "http://127.0.0.1:9/x.bin".to_string()),
-        ("bad base64", "data:application/octet-stream;base64,@@@@".to_string()),
-        ("short base64", format!("data:application/octet-stream;base64,{}", &b64[..16])),
-        ("no base64 marker", "data:application/octet-stream,AAAA".to_string()),
+        (
+            "bad base64",
+            "data:application/octet-stream;base64,@@@@".to_string(),
+        ),
+        (
+            "short base64",
+            format!("data:application/octet-stream;base64,{}", &b64[..16]),
+        ),
+        (
+            "no base64 marker",
+            "data:application/octet-stream,AAAA".to_string(),
+        ),
         ("empty data", "data:".to_string()),
     ] {
         push(
@@ -483,9 +682,17 @@ fn gltf_specials(v: &mut Vec<Input>) {
             gltf_json(&GltfParams::default(), Some(&uri)).into_bytes(),
         );
     }
-    let huge_len = GltfParams { buffer_length: "4294967295".into(), ..Default::default() };
+    let huge_len = GltfParams {
+        buffer_length: "4294967295".into(),
+        ..Default::default()
+    };
     let uri = format!("data:application/octet-stream;base64,{b64}");
-    push(v, t, "gltf uri: data shorter than 4 GB byteLength", gltf_json(&huge_len, Some(&uri)).into_bytes());
+    push(
+        v,
+        t,
+        "gltf uri: data shorter than 4 GB byteLength",
+        gltf_json(&huge_len, Some(&uri)).into_bytes(),
+    );
     // JSON oddities.
     for (name, s) in [
         ("empty", String::new()),
@@ -493,8 +700,18 @@ fn gltf_specials(v: &mut Vec<Input>) {
         ("array", "[]".to_string()),
         ("empty object", "{}".to_string()),
         ("asset only", r#"{"asset":{"version":"2.0"}}"#.to_string()),
-        ("deep nesting", format!("{}{}", "[".repeat(100_000), "]".repeat(100_000))),
-        ("deep object", format!(r#"{{"asset":{{"version":"2.0"}},"extras":{}1{}}}"#, r#"{"a":"#.repeat(10_000), "}".repeat(10_000))),
+        (
+            "deep nesting",
+            format!("{}{}", "[".repeat(100_000), "]".repeat(100_000)),
+        ),
+        (
+            "deep object",
+            format!(
+                r#"{{"asset":{{"version":"2.0"}},"extras":{}1{}}}"#,
+                r#"{"a":"#.repeat(10_000),
+                "}".repeat(10_000)
+            ),
+        ),
         ("version 1.0", r#"{"asset":{"version":"1.0"}}"#.to_string()),
         ("utf-16", "\u{feff}{}".to_string()),
     ] {
@@ -559,7 +776,12 @@ fn bvh_specials(v: &mut Vec<Input>) {
             let o = 40 + 4 * w;
             d[o..o + 4].copy_from_slice(&s.to_le_bytes());
             fix_bvh_checksum(&mut d);
-            push(v, t, format!("bvh payload: word {w} = {s:#x} (checksum fixed)"), d);
+            push(
+                v,
+                t,
+                format!("bvh payload: word {w} = {s:#x} (checksum fixed)"),
+                d,
+            );
         }
     }
     // Bit flips with the checksum fixed.
@@ -569,7 +791,12 @@ fn bvh_specials(v: &mut Vec<Input>) {
         let mut d = valid.clone();
         d[bit / 8] ^= 1 << (bit % 8);
         fix_bvh_checksum(&mut d);
-        push(v, t, format!("bvh payload: flip bit {bit} (checksum fixed)"), d);
+        push(
+            v,
+            t,
+            format!("bvh payload: flip bit {bit} (checksum fixed)"),
+            d,
+        );
     }
     // The spatial-split tree of the same triangles, and trees of other builders.
     for b in ["sweep", "sbvh"] {
@@ -612,22 +839,44 @@ fn scene_specials(v: &mut Vec<Input>, count: usize) {
     ];
     let mut rng = Pcg32::new(2024, 3);
     for k in 0..count {
-        let n_tris = 1 + rng.below(15) as u8;
+        let n_tris = 1 + rng.below(15) as usize;
         let n_rays = 1 + rng.below(16) as usize;
-        let mut d = vec![n_tris];
         // Triangles mostly finite (else the input is rejected up front).
         let mode = rng.below(4);
-        for i in 0..(9 * n_tris as usize + 8 * n_rays) {
-            let is_tri = i < 9 * n_tris as usize;
-            let x: f32 = match (mode, is_tri, rng.below(4)) {
-                (_, true, 0) | (0, true, _) => rng.below(7) as f32 - 3.0,
-                (1, true, _) => palette[rng.below(16) as usize],
-                (2, true, _) => rng.range_f32(-1.0, 1.0),
-                (_, true, _) => palette[rng.below(palette.len() as u32) as usize],
-                (_, false, 0) => f32::from_bits(rng.next_u32()),
-                (_, false, 1) => rng.range_f32(-4.0, 4.0),
-                (_, false, _) => palette[rng.below(palette.len() as u32) as usize],
-            };
+        let tris: Vec<f32> = (0..9 * n_tris)
+            .map(|_| match (mode, rng.below(4)) {
+                (_, 0) | (0, _) => rng.below(7) as f32 - 3.0,
+                (1, _) => palette[rng.below(16) as usize],
+                (2, _) => rng.range_f32(-1.0, 1.0),
+                _ => palette[rng.below(palette.len() as u32) as usize],
+            })
+            .collect();
+        let mut values = tris.clone();
+        for _ in 0..n_rays {
+            if rng.below(2) == 0 {
+                // Aimed at a vertex or an edge midpoint, ending on it (tmax = 1) or not.
+                let t = rng.below(n_tris as u32) as usize;
+                let vertex = |k: u32| [0, 1, 2].map(|a| tris[9 * t + 3 * k as usize + a]);
+                let (a, b) = (vertex(rng.below(3)), vertex(rng.below(3)));
+                let origin = [0, 1, 2].map(|_| rng.below(9) as f32 - 4.0);
+                let tmax = match rng.below(3) {
+                    0 => 1.0,
+                    1 => f32::INFINITY,
+                    _ => palette[rng.below(palette.len() as u32) as usize],
+                };
+                values.extend(origin);
+                values.extend((0..3).map(|i| 0.5 * a[i] + 0.5 * b[i] - origin[i]));
+                values.extend([0.0, tmax]);
+            } else {
+                values.extend((0..8).map(|_| match rng.below(3) {
+                    0 => f32::from_bits(rng.next_u32()),
+                    1 => rng.range_f32(-4.0, 4.0),
+                    _ => palette[rng.below(palette.len() as u32) as usize],
+                }));
+            }
+        }
+        let mut d = vec![n_tris as u8];
+        for x in values {
             d.extend_from_slice(&x.to_le_bytes());
         }
         push(v, Target::Scene, format!("scene bytes {k}"), d);
@@ -651,7 +900,7 @@ pub fn corpus(target: Target) -> Vec<Input> {
             generic(&mut v, target, "bvh", &valid_bvh(), 1024, 4);
             bvh_specials(&mut v);
         }
-        Target::Scene => scene_specials(&mut v, 600),
+        Target::Scene => scene_specials(&mut v, 3000),
     }
     v
 }
@@ -660,10 +909,40 @@ pub fn corpus(target: Target) -> Vec<Input> {
 pub fn seeds() -> Vec<(Target, &'static str, Vec<u8>)> {
     let mut scene = vec![2u8];
     for x in [
-        -1.0f32, -1.0, 2.0, 1.0, -1.0, 2.0, 0.0, 1.0, 2.0, // triangle 0
-        -1.0, -1.0, 3.0, 1.0, -1.0, 3.0, 0.0, 1.0, 3.0, // triangle 1
-        0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, f32::INFINITY, // a ray that hits
-        0.0, 0.0, 0.0, 0.0, 0.0, f32::NAN, 0.0, f32::INFINITY, // an invalid ray
+        -1.0f32,
+        -1.0,
+        2.0,
+        1.0,
+        -1.0,
+        2.0,
+        0.0,
+        1.0,
+        2.0, // triangle 0
+        -1.0,
+        -1.0,
+        3.0,
+        1.0,
+        -1.0,
+        3.0,
+        0.0,
+        1.0,
+        3.0, // triangle 1
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+        f32::INFINITY, // a ray that hits
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        f32::NAN,
+        0.0,
+        f32::INFINITY, // an invalid ray
     ] {
         scene.extend_from_slice(&x.to_le_bytes());
     }

@@ -21,7 +21,10 @@ pub const FUZZ_OBJ_NAME: &str = "fuzz-input.obj";
 /// See [`FUZZ_OBJ_NAME`].
 pub const FUZZ_GLTF_NAME: &str = "fuzz-input.glb";
 
-fn check_loaded(result: Result<Result<Mesh, SceneError>, String>, name: &str) -> Result<(), String> {
+fn check_loaded(
+    result: Result<Result<Mesh, SceneError>, String>,
+    name: &str,
+) -> Result<(), String> {
     match result {
         Err(panic) => Err(format!("loader panicked: {panic}")),
         Ok(Ok(mesh)) => {
@@ -66,8 +69,16 @@ pub fn check_gltf(data: &[u8]) -> Result<(), String> {
 pub fn fixture_triangles() -> Vec<Triangle> {
     let mut tris = sahara_scene::closed_box(Vec3A::splat(-1.0), Vec3A::splat(1.0), 1).triangles();
     for i in 0..12 {
-        let o = Vec3A::new(i as f32 * 0.5 - 3.0, 2.0 + (i % 3) as f32, (i % 5) as f32 - 2.0);
-        tris.push(Triangle::new(o, o + Vec3A::X, o + Vec3A::new(0.0, 0.5, 0.5)));
+        let o = Vec3A::new(
+            i as f32 * 0.5 - 3.0,
+            2.0 + (i % 3) as f32,
+            (i % 5) as f32 - 2.0,
+        );
+        tris.push(Triangle::new(
+            o,
+            o + Vec3A::X,
+            o + Vec3A::new(0.0, 0.5, 0.5),
+        ));
     }
     tris
 }
@@ -89,24 +100,83 @@ pub fn fixture_rays() -> Vec<Ray> {
     rays
 }
 
+/// The [`crate::KNOWN_BUGS`] entry that explains why a kernel may answer `ray` differently
+/// from brute force, if any: brute force (the watertight test) hits a triangle with zero area,
+/// hits a point outside the triangle's bounds (`false-hit`: degenerate triangles, or
+/// coordinates whose products overflow `f32`), hits at `t = +inf` (`inf-t`), or hits within
+/// a relative 1e-6 of `tmax` (`slab-tmax`).
+pub fn explained_by_known_bug(tris: &[Triangle], ray: &Ray) -> Option<&'static str> {
+    if !ray.is_valid() {
+        return None;
+    }
+    let w = ray.watertight();
+    for tri in tris {
+        let Some(h) = sahara_geom::intersect::intersect_triangle(&w, tri, ray.tmin, ray.tmax)
+        else {
+            continue;
+        };
+        if !h.t.is_finite() {
+            return Some("inf-t");
+        }
+        if tri.area() == 0.0 || !tri.area().is_finite() {
+            return Some("false-hit");
+        }
+        let p = ray.origin.as_dvec3() + ray.direction.as_dvec3() * f64::from(h.t);
+        let b = tri.bounds();
+        let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+        let tol = 1e-4
+            * (hi - lo)
+                .max_element()
+                .max(p.abs().max_element())
+                .max(1e-30);
+        if !p.is_finite() || (p - lo).min_element() < -tol || (hi - p).min_element() < -tol {
+            return Some("false-hit");
+        }
+        if ray.tmax.is_finite() && f64::from(h.t) >= f64::from(ray.tmax) * (1.0 - 1e-6) {
+            return Some("slab-tmax");
+        }
+    }
+    None
+}
+
 /// Kernels of the traversal checks: the scalar reference and every wide kernel available.
-fn traces_like_brute(bvh: &Bvh, tris: &[Triangle], rays: &[Ray]) -> Result<(), String> {
+/// With `tolerate_known_bugs`, rays [`explained_by_known_bug`] are not compared.
+fn traces_like_brute(
+    bvh: &Bvh,
+    tris: &[Triangle],
+    rays: &[Ray],
+    tolerate_known_bugs: bool,
+) -> Result<(), String> {
     let w4 = WideBvh::<4>::from_bvh(bvh, tris);
     let w8 = WideBvh::<8>::from_bvh(bvh, tris);
     for (i, r) in rays.iter().enumerate() {
         let expect = brute::closest_hit(tris, r);
         let expect_any = brute::any_hit(tris, r);
-        let mut got = vec![("bvh2", scalar::closest_hit(bvh, tris, r, &mut NoStats), scalar::any_hit(bvh, tris, r, &mut NoStats))];
+        let mut got = vec![(
+            "bvh2",
+            scalar::closest_hit(bvh, tris, r, &mut NoStats),
+            scalar::any_hit(bvh, tris, r, &mut NoStats),
+        )];
         for b in Backend::ALL.into_iter().filter(|b| b.is_available()) {
-            got.push(("bvh4", w4.closest_hit_with(b, r, &mut NoStats), w4.any_hit_with(b, r, &mut NoStats)));
-            got.push(("bvh8", w8.closest_hit_with(b, r, &mut NoStats), w8.any_hit_with(b, r, &mut NoStats)));
+            got.push((
+                "bvh4",
+                w4.closest_hit_with(b, r, &mut NoStats),
+                w4.any_hit_with(b, r, &mut NoStats),
+            ));
+            got.push((
+                "bvh8",
+                w8.closest_hit_with(b, r, &mut NoStats),
+                w8.any_hit_with(b, r, &mut NoStats),
+            ));
         }
         for (k, h, any) in got {
             let same = h.prim == expect.prim
                 && h.t.to_bits() == expect.t.to_bits()
                 && h.u.to_bits() == expect.u.to_bits()
                 && h.v.to_bits() == expect.v.to_bits();
-            if !same || any != expect_any {
+            if (!same || any != expect_any)
+                && !(tolerate_known_bugs && explained_by_known_bug(tris, r).is_some())
+            {
                 return Err(format!(
                     "{k}: ray {i} ({r:?}) gives {h:?}/{any}, brute force {expect:?}/{expect_any}"
                 ));
@@ -130,12 +200,12 @@ pub fn check_bvh_file(data: &[u8]) -> Result<(), String> {
         .map_err(|p| format!("validate_structure panicked: {p}"))?
         .map_err(|e| format!("a loaded tree fails validate_structure: {e}"))?;
     let tris = fixture_triangles();
-    let valid = catch_quiet(|| bvh.validate(&tris))
-        .map_err(|p| format!("validate panicked: {p}"))?;
+    let valid =
+        catch_quiet(|| bvh.validate(&tris)).map_err(|p| format!("validate panicked: {p}"))?;
     let _ = catch_quiet(|| sahara_metrics::sah(&bvh, &CostModel::default()))
         .map_err(|p| format!("sah panicked: {p}"))?;
     if valid.is_ok() && !bvh.spatial_splits {
-        catch_quiet(|| traces_like_brute(&bvh, &tris, &fixture_rays()))
+        catch_quiet(|| traces_like_brute(&bvh, &tris, &fixture_rays(), false))
             .map_err(|p| format!("traversal of a valid loaded tree panicked: {p}"))??;
     }
     Ok(())
@@ -158,6 +228,22 @@ fn floats(data: &[u8]) -> Vec<f32> {
 /// that every registered builder gives a valid tree with a finite SAH cost, and that every
 /// kernel traces every ray exactly like brute force.
 pub fn check_scene_bytes(data: &[u8]) -> Result<(), String> {
+    check_scene_bytes_with(data, true)
+}
+
+/// True when a bounds extent exceeds what `Aabb::half_area` can square in `f32` (the scenes
+/// where the known bug `sah-overflow` makes the SAH cost NaN).
+fn extent_overflows(tris: &[Triangle]) -> bool {
+    let mut b = sahara_geom::Aabb::EMPTY;
+    for t in tris {
+        b.grow_aabb(&t.bounds());
+    }
+    !(b.half_area().is_finite())
+}
+
+/// [`check_scene_bytes`], optionally reporting the failures that [`crate::KNOWN_BUGS`]
+/// explain (`tolerate_known_bugs = false`).
+pub fn check_scene_bytes_with(data: &[u8], tolerate_known_bugs: bool) -> Result<(), String> {
     let Some((&head, rest)) = data.split_first() else {
         return Ok(());
     };
@@ -173,15 +259,28 @@ pub fn check_scene_bytes(data: &[u8]) -> Result<(), String> {
     let rays: Vec<Ray> = f[9 * n..]
         .chunks_exact(8)
         .take(64)
-        .map(|r| Ray::new(Vec3A::new(r[0], r[1], r[2]), Vec3A::new(r[3], r[4], r[5]), r[6], r[7]))
+        .map(|r| {
+            Ray::new(
+                Vec3A::new(r[0], r[1], r[2]),
+                Vec3A::new(r[3], r[4], r[5]),
+                r[6],
+                r[7],
+            )
+        })
         .collect();
     let first_bad = tris.iter().position(|t| !t.is_finite());
     let input = catch_quiet(|| BuildInput::new(&tris, CostModel::default()))
         .map_err(|p| format!("BuildInput::new panicked: {p}"))?;
     let input = match (input, first_bad) {
         (Err(BuildError::NonFinite { triangle }), Some(i)) if triangle == i => return Ok(()),
-        (Err(e), _) => return Err(format!("BuildInput::new: unexpected {e:?} (first non-finite: {first_bad:?})")),
-        (Ok(_), Some(i)) => return Err(format!("BuildInput::new accepted non-finite triangle {i}")),
+        (Err(e), _) => {
+            return Err(format!(
+                "BuildInput::new: unexpected {e:?} (first non-finite: {first_bad:?})"
+            ))
+        }
+        (Ok(_), Some(i)) => {
+            return Err(format!("BuildInput::new accepted non-finite triangle {i}"))
+        }
         (Ok(input), None) => input,
     };
     for entry in registry::entries() {
@@ -195,10 +294,10 @@ pub fn check_scene_bytes(data: &[u8]) -> Result<(), String> {
             .map_err(|p| format!("{}: validate panicked: {p}", entry.name))?
             .map_err(|e| format!("{}: invalid tree: {e}", entry.name))?;
         let cost = sahara_metrics::sah(&bvh, &CostModel::default());
-        if !cost.is_finite() {
+        if !cost.is_finite() && !(tolerate_known_bugs && extent_overflows(&tris)) {
             return Err(format!("{}: SAH cost {cost}", entry.name));
         }
-        catch_quiet(|| traces_like_brute(&bvh, &tris, &rays))
+        catch_quiet(|| traces_like_brute(&bvh, &tris, &rays, tolerate_known_bugs))
             .map_err(|p| format!("{}: traversal panicked: {p}", entry.name))?
             .map_err(|e| format!("{}: {e}", entry.name))?;
     }

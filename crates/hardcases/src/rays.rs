@@ -21,14 +21,7 @@ pub(crate) fn in_ball(rng: &mut Pcg32, center: Vec3A, radius: f32) -> Vec3A {
 /// `n` rays from random points within `radius` of `center`, in random directions.
 pub(crate) fn inside_random(rng: &mut Pcg32, center: Vec3A, radius: f32, n: usize) -> Vec<Ray> {
     (0..n)
-        .map(|_| {
-            Ray::new(
-                in_ball(rng, center, radius),
-                unit(rng),
-                0.0,
-                f32::INFINITY,
-            )
-        })
+        .map(|_| Ray::new(in_ball(rng, center, radius), unit(rng), 0.0, f32::INFINITY))
         .collect()
 }
 
@@ -103,12 +96,7 @@ pub(crate) fn probe(tris: &[Triangle], n: usize, rng: &mut Pcg32) -> Vec<Ray> {
     if tris.is_empty() {
         // Anything: nothing may be hit.
         for _ in 0..n.min(64) {
-            rays.push(Ray::new(
-                Vec3A::ZERO,
-                unit(rng),
-                0.0,
-                f32::INFINITY,
-            ));
+            rays.push(Ray::new(Vec3A::ZERO, unit(rng), 0.0, f32::INFINITY));
         }
         return rays;
     }
@@ -180,39 +168,93 @@ pub(crate) fn probe(tris: &[Triangle], n: usize, rng: &mut Pcg32) -> Vec<Ray> {
 pub(crate) fn corruptions() -> Vec<(&'static str, fn(Ray) -> Ray)> {
     vec![
         ("origin.x=NaN", |r| {
-            Ray::new(Vec3A::new(f32::NAN, r.origin.y, r.origin.z), r.direction, r.tmin, r.tmax)
+            Ray::new(
+                Vec3A::new(f32::NAN, r.origin.y, r.origin.z),
+                r.direction,
+                r.tmin,
+                r.tmax,
+            )
         }),
         ("origin.y=+inf", |r| {
-            Ray::new(Vec3A::new(r.origin.x, f32::INFINITY, r.origin.z), r.direction, r.tmin, r.tmax)
+            Ray::new(
+                Vec3A::new(r.origin.x, f32::INFINITY, r.origin.z),
+                r.direction,
+                r.tmin,
+                r.tmax,
+            )
         }),
         ("origin.z=-inf", |r| {
-            Ray::new(Vec3A::new(r.origin.x, r.origin.y, f32::NEG_INFINITY), r.direction, r.tmin, r.tmax)
+            Ray::new(
+                Vec3A::new(r.origin.x, r.origin.y, f32::NEG_INFINITY),
+                r.direction,
+                r.tmin,
+                r.tmax,
+            )
         }),
-        ("origin=NaN", |r| Ray::new(Vec3A::NAN, r.direction, r.tmin, r.tmax)),
+        ("origin=NaN", |r| {
+            Ray::new(Vec3A::NAN, r.direction, r.tmin, r.tmax)
+        }),
         ("direction.x=NaN", |r| {
-            Ray::new(r.origin, Vec3A::new(f32::NAN, r.direction.y, r.direction.z), r.tmin, r.tmax)
+            Ray::new(
+                r.origin,
+                Vec3A::new(f32::NAN, r.direction.y, r.direction.z),
+                r.tmin,
+                r.tmax,
+            )
         }),
         ("direction.y=+inf", |r| {
-            Ray::new(r.origin, Vec3A::new(r.direction.x, f32::INFINITY, r.direction.z), r.tmin, r.tmax)
+            Ray::new(
+                r.origin,
+                Vec3A::new(r.direction.x, f32::INFINITY, r.direction.z),
+                r.tmin,
+                r.tmax,
+            )
         }),
         ("direction.z=-inf", |r| {
-            Ray::new(r.origin, Vec3A::new(r.direction.x, r.direction.y, f32::NEG_INFINITY), r.tmin, r.tmax)
+            Ray::new(
+                r.origin,
+                Vec3A::new(r.direction.x, r.direction.y, f32::NEG_INFINITY),
+                r.tmin,
+                r.tmax,
+            )
         }),
-        ("direction=NaN", |r| Ray::new(r.origin, Vec3A::NAN, r.tmin, r.tmax)),
-        ("direction=0", |r| Ray::new(r.origin, Vec3A::ZERO, r.tmin, r.tmax)),
-        ("direction=-0", |r| Ray::new(r.origin, Vec3A::splat(-0.0), r.tmin, r.tmax)),
-        ("tmin=NaN", |r| Ray::new(r.origin, r.direction, f32::NAN, r.tmax)),
-        ("tmax=NaN", |r| Ray::new(r.origin, r.direction, r.tmin, f32::NAN)),
-        ("tmin=+inf", |r| Ray::new(r.origin, r.direction, f32::INFINITY, f32::INFINITY)),
-        ("tmin=-inf", |r| Ray::new(r.origin, r.direction, f32::NEG_INFINITY, r.tmax)),
-        ("tmax=-inf", |r| Ray::new(r.origin, r.direction, r.tmin, f32::NEG_INFINITY)),
+        ("direction=NaN", |r| {
+            Ray::new(r.origin, Vec3A::NAN, r.tmin, r.tmax)
+        }),
+        ("direction=0", |r| {
+            Ray::new(r.origin, Vec3A::ZERO, r.tmin, r.tmax)
+        }),
+        ("direction=-0", |r| {
+            Ray::new(r.origin, Vec3A::splat(-0.0), r.tmin, r.tmax)
+        }),
+        ("tmin=NaN", |r| {
+            Ray::new(r.origin, r.direction, f32::NAN, r.tmax)
+        }),
+        ("tmax=NaN", |r| {
+            Ray::new(r.origin, r.direction, r.tmin, f32::NAN)
+        }),
+        ("tmin=+inf", |r| {
+            Ray::new(r.origin, r.direction, f32::INFINITY, f32::INFINITY)
+        }),
+        ("tmin=-inf", |r| {
+            Ray::new(r.origin, r.direction, f32::NEG_INFINITY, r.tmax)
+        }),
+        ("tmax=-inf", |r| {
+            Ray::new(r.origin, r.direction, r.tmin, f32::NEG_INFINITY)
+        }),
         ("tmax=-1", |r| Ray::new(r.origin, r.direction, r.tmin, -1.0)),
         ("tmin>tmax", |r| Ray::new(r.origin, r.direction, 5.0, 1.0)),
         ("tmin=tmax=1", |r| Ray::new(r.origin, r.direction, 1.0, 1.0)),
         ("tmin=tmax=0", |r| Ray::new(r.origin, r.direction, 0.0, 0.0)),
-        ("tmin=-1e30", |r| Ray::new(r.origin, r.direction, -1e30, r.tmax)),
-        ("tmax=f32::MAX", |r| Ray::new(r.origin, r.direction, r.tmin, f32::MAX)),
-        ("tmax=MIN_POSITIVE", |r| Ray::new(r.origin, r.direction, r.tmin, f32::MIN_POSITIVE)),
+        ("tmin=-1e30", |r| {
+            Ray::new(r.origin, r.direction, -1e30, r.tmax)
+        }),
+        ("tmax=f32::MAX", |r| {
+            Ray::new(r.origin, r.direction, r.tmin, f32::MAX)
+        }),
+        ("tmax=MIN_POSITIVE", |r| {
+            Ray::new(r.origin, r.direction, r.tmin, f32::MIN_POSITIVE)
+        }),
         ("direction*1e-40 (denormal)", |r| {
             Ray::new(r.origin, r.direction * 1e-40, r.tmin, r.tmax)
         }),
@@ -220,7 +262,12 @@ pub(crate) fn corruptions() -> Vec<(&'static str, fn(Ray) -> Ray)> {
             Ray::new(r.origin, Vec3A::splat(1e-45), r.tmin, r.tmax)
         }),
         ("direction.x denormal", |r| {
-            Ray::new(r.origin, Vec3A::new(1e-40, r.direction.y, r.direction.z), r.tmin, r.tmax)
+            Ray::new(
+                r.origin,
+                Vec3A::new(1e-40, r.direction.y, r.direction.z),
+                r.tmin,
+                r.tmax,
+            )
         }),
         ("direction*1e-30 (tiny)", |r| {
             Ray::new(r.origin, r.direction * 1e-30, r.tmin, r.tmax)
@@ -229,7 +276,12 @@ pub(crate) fn corruptions() -> Vec<(&'static str, fn(Ray) -> Ray)> {
             Ray::new(r.origin, r.direction * 1e30, r.tmin, r.tmax)
         }),
         ("direction.y=-0", |r| {
-            Ray::new(r.origin, Vec3A::new(r.direction.x, -0.0, r.direction.z), r.tmin, r.tmax)
+            Ray::new(
+                r.origin,
+                Vec3A::new(r.direction.x, -0.0, r.direction.z),
+                r.tmin,
+                r.tmax,
+            )
         }),
         ("direction=(-0,-0,1)", |r| {
             Ray::new(r.origin, Vec3A::new(-0.0, -0.0, 1.0), r.tmin, r.tmax)
@@ -240,9 +292,16 @@ pub(crate) fn corruptions() -> Vec<(&'static str, fn(Ray) -> Ray)> {
         ("origin*1e30 (huge, finite)", |r| {
             Ray::new(r.origin * 1e30, r.direction, r.tmin, r.tmax)
         }),
-        ("origin=f32::MAX", |r| Ray::new(Vec3A::splat(f32::MAX), -r.direction, r.tmin, r.tmax)),
+        ("origin=f32::MAX", |r| {
+            Ray::new(Vec3A::splat(f32::MAX), -r.direction, r.tmin, r.tmax)
+        }),
         ("direction=f32::MAX", |r| {
-            Ray::new(r.origin, Vec3A::new(f32::MAX, -f32::MAX, f32::MAX), r.tmin, r.tmax)
+            Ray::new(
+                r.origin,
+                Vec3A::new(f32::MAX, -f32::MAX, f32::MAX),
+                r.tmin,
+                r.tmax,
+            )
         }),
     ]
 }

@@ -85,7 +85,10 @@ pub fn run_case_with(
     let rays = Arc::new(case.rays.clone());
     let start = Instant::now();
     let reference = catch_quiet(|| {
-        let closest: Vec<Hit> = rays.par_iter().map(|r| brute::closest_hit(&tris, r)).collect();
+        let closest: Vec<Hit> = rays
+            .par_iter()
+            .map(|r| brute::closest_hit(&tris, r))
+            .collect();
         let any: Vec<bool> = rays.par_iter().map(|r| brute::any_hit(&tris, r)).collect();
         Reference { closest, any }
     });
@@ -257,7 +260,9 @@ fn check_brute(case: &Case, r: &Reference) -> (bool, String) {
         .filter(|&i| r.closest[i].is_hit() != r.any[i])
         .count();
     if inconsistent > 0 {
-        problems.push(format!("any-hit and closest-hit disagree on {inconsistent} rays"));
+        problems.push(format!(
+            "any-hit and closest-hit disagree on {inconsistent} rays"
+        ));
     }
     let invalid_hits = (0..case.rays.len())
         .filter(|&i| !case.rays[i].is_valid() && (r.closest[i].is_hit() || r.any[i]))
@@ -265,7 +270,11 @@ fn check_brute(case: &Case, r: &Reference) -> (bool, String) {
     if invalid_hits > 0 {
         problems.push(format!("{invalid_hits} invalid rays hit"));
     }
-    let nan = r.closest.iter().filter(|h| h.is_hit() && !(h.t.is_finite())).count();
+    let nan = r
+        .closest
+        .iter()
+        .filter(|h| h.is_hit() && !(h.t.is_finite()))
+        .count();
     if nan > 0 {
         problems.push(format!("{nan} hits at a non-finite distance"));
     }
@@ -287,7 +296,14 @@ fn check_brute(case: &Case, r: &Reference) -> (bool, String) {
 fn describe_ray(r: &Ray) -> String {
     format!(
         "o=({:e},{:e},{:e}) d=({:e},{:e},{:e}) t=[{:e},{:e}]",
-        r.origin.x, r.origin.y, r.origin.z, r.direction.x, r.direction.y, r.direction.z, r.tmin, r.tmax
+        r.origin.x,
+        r.origin.y,
+        r.origin.z,
+        r.direction.x,
+        r.direction.y,
+        r.direction.z,
+        r.tmin,
+        r.tmax
     )
 }
 

@@ -47,15 +47,38 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
         ),
         (
             "direction NaN",
-            map(&|r| Ray::new(r.origin, Vec3A::new(f32::NAN, r.direction.y, r.direction.z), r.tmin, r.tmax)),
+            map(&|r| {
+                Ray::new(
+                    r.origin,
+                    Vec3A::new(f32::NAN, r.direction.y, r.direction.z),
+                    r.tmin,
+                    r.tmax,
+                )
+            }),
         ),
         (
             "direction inf",
-            map(&|r| Ray::new(r.origin, Vec3A::new(r.direction.x, f32::INFINITY, r.direction.z), r.tmin, r.tmax)),
+            map(&|r| {
+                Ray::new(
+                    r.origin,
+                    Vec3A::new(r.direction.x, f32::INFINITY, r.direction.z),
+                    r.tmin,
+                    r.tmax,
+                )
+            }),
         ),
-        ("direction zero", map(&|r| Ray::new(r.origin, Vec3A::ZERO, r.tmin, r.tmax))),
-        ("tmin > tmax", map(&|r| Ray::new(r.origin, r.direction, 2.0, 1.0))),
-        ("tmax NaN", map(&|r| Ray::new(r.origin, r.direction, r.tmin, f32::NAN))),
+        (
+            "direction zero",
+            map(&|r| Ray::new(r.origin, Vec3A::ZERO, r.tmin, r.tmax)),
+        ),
+        (
+            "tmin > tmax",
+            map(&|r| Ray::new(r.origin, r.direction, 2.0, 1.0)),
+        ),
+        (
+            "tmax NaN",
+            map(&|r| Ray::new(r.origin, r.direction, r.tmin, f32::NAN)),
+        ),
         (
             "half invalid (interleaved)",
             valid
@@ -80,7 +103,14 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
         ),
         (
             "direction -0 components (valid)",
-            map(&|r| Ray::new(r.origin, Vec3A::new(r.direction.x, -0.0, -0.0), r.tmin, r.tmax)),
+            map(&|r| {
+                Ray::new(
+                    r.origin,
+                    Vec3A::new(r.direction.x, -0.0, -0.0),
+                    r.tmin,
+                    r.tmax,
+                )
+            }),
         ),
     ]
 }
@@ -95,7 +125,15 @@ fn best_of<F: FnMut() -> u64>(repeats: usize, mut f: F) -> f64 {
     best
 }
 
-fn time_batch(kernel: Kernel, bvh: &Bvh, tris: &[sahara_geom::Triangle], w4: &WideBvh<4>, w8: &WideBvh<8>, rays: &[Ray], repeats: usize) -> f64 {
+fn time_batch(
+    kernel: Kernel,
+    bvh: &Bvh,
+    tris: &[sahara_geom::Triangle],
+    w4: &WideBvh<4>,
+    w8: &WideBvh<8>,
+    rays: &[Ray],
+    repeats: usize,
+) -> f64 {
     best_of(repeats, || {
         let mut acc = 0u64;
         for r in rays {
@@ -112,7 +150,12 @@ fn time_batch(kernel: Kernel, bvh: &Bvh, tris: &[sahara_geom::Triangle], w4: &Wi
 
 /// Times every batch of [`batches`] with every kernel (closest hit, one thread, best of
 /// `repeats`) on a `builder` tree of `sphere_in_box` (20 000 triangles).
-pub fn bad_ray_timing(kernels: &[Kernel], builder: &str, n_rays: usize, repeats: usize) -> Vec<BatchTiming> {
+pub fn bad_ray_timing(
+    kernels: &[Kernel],
+    builder: &str,
+    n_rays: usize,
+    repeats: usize,
+) -> Vec<BatchTiming> {
     let scene = Procedural::SphereInBox.scene(20_000, DEFAULT_SEED);
     let tris = scene.triangles();
     let input = BuildInput::new(&tris, CostModel::default()).expect("finite scene");

@@ -36,7 +36,12 @@ pub fn closest_hit<S: TraversalStats>(
                 let limit = cull_distance(best.t).min(ray.tmax);
                 if let Some(h) = intersect_triangle(&w, &tris[p as usize], ray.tmin, limit) {
                     if best.is_improved_by(h.t, p) {
-                        best = Hit { t: h.t, prim: p, u: h.u, v: h.v };
+                        best = Hit {
+                            t: h.t,
+                            prim: p,
+                            u: h.u,
+                            v: h.v,
+                        };
                     }
                 }
             }

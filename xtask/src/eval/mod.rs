@@ -134,9 +134,14 @@ const SPATIAL_REFERENCE: &str = "sbvh";
 
 fn default_scenes(quick: bool) -> Vec<String> {
     if quick {
-        return ["sphere_in_box:20000", "teapot_stadium:20000", "city:20000", "hairball:10000"]
-            .map(String::from)
-            .to_vec();
+        return [
+            "sphere_in_box:20000",
+            "teapot_stadium:20000",
+            "city:20000",
+            "hairball:10000",
+        ]
+        .map(String::from)
+        .to_vec();
     }
     let catalog = sahara_scene::Catalog::discover();
     let mut v: Vec<String> = catalog
@@ -341,12 +346,15 @@ pub fn run(a: Args) -> Result<()> {
                 .map(|(_, bvh)| trace_cmd::make_tracer(layout, bvh, &scene.triangles))
                 .collect::<Result<_>>()?;
             for set in &sets {
-                bar.set_message(format!("{} / trace {layout} {}", scene.name, set.kind.name()));
+                bar.set_message(format!(
+                    "{} / trace {layout} {}",
+                    scene.name,
+                    set.kind.name()
+                ));
                 // Passes are interleaved across builders (one warm-up round, then `passes`
                 // timed rounds), so that drift of a shared machine hits every tree alike.
-                let timings = util::with_threads(a.threads, || {
-                    interleaved_timings(&tracers, set, s.passes)
-                })?;
+                let timings =
+                    util::with_threads(a.threads, || interleaved_timings(&tracers, set, s.passes))?;
                 for ((b, _), (tracer, timing)) in trees.iter().zip(tracers.iter().zip(timings)) {
                     let counted = util::with_threads(a.threads, || {
                         sahara_trace::trace_set_counted(tracer.as_ref(), set)
@@ -536,7 +544,13 @@ fn simd_backend() -> String {
 
 pub fn file_stem(name: &str) -> String {
     name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect()
 }
 

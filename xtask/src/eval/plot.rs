@@ -45,7 +45,9 @@ const PALETTE: [&str; 10] = [
 ];
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// Indices of the points on the Pareto front (no other point is at most as large in both
@@ -241,7 +243,12 @@ impl Plot {
                 sx(p.x),
                 sy(p.y),
                 colour(&p.series),
-                esc(&format!("{}: ({}, {})", p.label, fmt_num(p.x), fmt_num(p.y)))
+                esc(&format!(
+                    "{}: ({}, {})",
+                    p.label,
+                    fmt_num(p.x),
+                    fmt_num(p.y)
+                ))
             );
             if self.labels {
                 let _ = write!(
@@ -314,8 +321,18 @@ mod tests {
             log_x: true,
             pareto: true,
             points: vec![
-                Point { x: 1.0, y: 2.0, label: "a".into(), series: "s".into() },
-                Point { x: 10.0, y: 1.0, label: "b".into(), series: "s".into() },
+                Point {
+                    x: 1.0,
+                    y: 2.0,
+                    label: "a".into(),
+                    series: "s".into(),
+                },
+                Point {
+                    x: 10.0,
+                    y: 1.0,
+                    label: "b".into(),
+                    series: "s".into(),
+                },
             ],
             ..Default::default()
         };

@@ -119,7 +119,8 @@ pub fn evaluate(
                         s.width as f32 / s.height as f32,
                         128,
                     );
-                    let m = sahara_metrics::primary_ray_metrics(bvh, &st.scene.triangles, &cost, &grid);
+                    let m =
+                        sahara_metrics::primary_ray_metrics(bvh, &st.scene.triangles, &cost, &grid);
                     (m.frustum_sah, m.visible_epo)
                 });
                 let weighted = sample.map(|rays| {
@@ -164,7 +165,11 @@ pub fn evaluate(
             let fitted = SahEpoPredictor::fit(&plain, REFERENCE);
             let wfit = SahEpoPredictor::fit(&weighted, REFERENCE);
             let cfit = SahEpoPredictor::fit(&camera, REFERENCE);
-            let candidates: Vec<(String, Result<SahEpoPredictor, String>, &Vec<PredictorSample>)> = vec![
+            let candidates: Vec<(
+                String,
+                Result<SahEpoPredictor, String>,
+                &Vec<PredictorSample>,
+            )> = vec![
                 ("SAH".into(), Ok(SahEpoPredictor { alpha: 0.0 }), &plain),
                 ("SAH-EPO α=0.71".into(), Ok(SahEpoPredictor::AILA), &plain),
                 (

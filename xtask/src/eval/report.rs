@@ -241,7 +241,11 @@ fn write_csv(dir: &Path, r: &Results) -> Result<()> {
 
 /// Geometric mean (ignores non-positive values).
 fn geomean(v: &[f64]) -> Option<f64> {
-    let v: Vec<f64> = v.iter().copied().filter(|x| *x > 0.0 && x.is_finite()).collect();
+    let v: Vec<f64> = v
+        .iter()
+        .copied()
+        .filter(|x| *x > 0.0 && x.is_finite())
+        .collect();
     if v.is_empty() {
         return None;
     }
@@ -289,7 +293,10 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
         }
         k
     };
-    d.h(2, format!("Trace performance relative to full-sweep SAH ({layout0})"));
+    d.h(
+        2,
+        format!("Trace performance relative to full-sweep SAH ({layout0})"),
+    );
     for kind in &kinds {
         d.h(3, format!("{kind} rays: speed (work) relative to sweep"));
         let mut rows = Vec::new();
@@ -332,14 +339,19 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
         })
         .collect();
     if spatial.len() > 1 {
-        d.h(2, format!("Spatial-split builders relative to SBVH ({layout0})"));
+        d.h(
+            2,
+            format!("Spatial-split builders relative to SBVH ({layout0})"),
+        );
         let mut rows = Vec::new();
         for sc in &r.scenes {
             for kind in &kinds {
                 let mut row = vec![format!("{} / {kind}", sc.name)];
                 for b in &spatial {
                     row.push(match find(&r.traces, &sc.name, b, &layout0, kind) {
-                        Some(t) => format!("{} ({})", ratio(t.speed_vs_sbvh), ratio(t.work_vs_sbvh)),
+                        Some(t) => {
+                            format!("{} ({})", ratio(t.speed_vs_sbvh), ratio(t.work_vs_sbvh))
+                        }
                         None => "–".into(),
                     });
                 }
@@ -374,7 +386,16 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
             ]);
         }
         d.table(
-            &["builder", "build ms median [min–max]", "SAH", "EPO", "nodes", "references", "max leaf", "depth"],
+            &[
+                "builder",
+                "build ms median [min–max]",
+                "SAH",
+                "EPO",
+                "nodes",
+                "references",
+                "max leaf",
+                "depth",
+            ],
             rows,
         );
         let mut rows = Vec::new();
@@ -396,7 +417,17 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
             ]);
         }
         d.table(
-            &["builder / layout / rays", "Mrays/s median [min–max]", "speed vs sweep", "inner/ray", "leaves/ray", "tris/ray", "work vs sweep", "LCV", "hits"],
+            &[
+                "builder / layout / rays",
+                "Mrays/s median [min–max]",
+                "speed vs sweep",
+                "inner/ray",
+                "leaves/ray",
+                "tris/ray",
+                "work vs sweep",
+                "LCV",
+                "hits",
+            ],
             rows,
         );
     }
@@ -411,25 +442,34 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
         let mut bt = Vec::new();
         let mut tt = Vec::new();
         for sc in &r.scenes {
-            let this = r.builds.iter().find(|x| x.scene == sc.name && &x.builder == *b);
-            let refb = r.builds.iter().find(|x| x.scene == sc.name && x.builder == REFERENCE);
+            let this = r
+                .builds
+                .iter()
+                .find(|x| x.scene == sc.name && &x.builder == *b);
+            let refb = r
+                .builds
+                .iter()
+                .find(|x| x.scene == sc.name && x.builder == REFERENCE);
             if let (Some(t), Some(rf)) = (this, refb) {
                 if rf.build_ms.median > 0.0 {
                     bt.push(t.build_ms.median / rf.build_ms.median);
                 }
             }
-            for t in r
-                .traces
-                .iter()
-                .filter(|t| t.report.scene == sc.name && &t.report.builder == *b && t.report.layout == layout0)
-            {
+            for t in r.traces.iter().filter(|t| {
+                t.report.scene == sc.name && &t.report.builder == *b && t.report.layout == layout0
+            }) {
                 if let Some(sp) = t.speed_vs_sweep {
                     tt.push(1.0 / sp);
                 }
             }
         }
         if let (Some(x), Some(y)) = (geomean(&bt), geomean(&tt)) {
-            pts.push(Point { x, y, label: b.to_string(), series: b.to_string() });
+            pts.push(Point {
+                x,
+                y,
+                label: b.to_string(),
+                series: b.to_string(),
+            });
         }
     }
     let plot = Plot {
@@ -442,7 +482,13 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
         points: pts,
         ..Default::default()
     };
-    add_svg(&mut d, dir, "plots/speed-vs-error.svg", "speed against error", plot.svg())?;
+    add_svg(
+        &mut d,
+        dir,
+        "plots/speed-vs-error.svg",
+        "speed against error",
+        plot.svg(),
+    )?;
 
     // Predictors.
     if !r.predictors.is_empty() {
@@ -457,15 +503,35 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
                 p.predictor.clone(),
                 p.target.clone(),
                 p.alpha.map_or("–".into(), |a| format!("{a:.3}")),
-                p.report.as_ref().map_or("–".into(), |x| format!("{:.1}%", 100.0 * x.mean_relative_error)),
-                p.report.as_ref().map_or("–".into(), |x| format!("{:.1}%", 100.0 * x.max_relative_error)),
-                p.report.as_ref().and_then(|x| x.spearman).map_or("–".into(), |v| format!("{v:.3}")),
-                p.report.as_ref().and_then(|x| x.mean_scene_spearman).map_or("–".into(), |v| format!("{v:.3}")),
+                p.report.as_ref().map_or("–".into(), |x| {
+                    format!("{:.1}%", 100.0 * x.mean_relative_error)
+                }),
+                p.report.as_ref().map_or("–".into(), |x| {
+                    format!("{:.1}%", 100.0 * x.max_relative_error)
+                }),
+                p.report
+                    .as_ref()
+                    .and_then(|x| x.spearman)
+                    .map_or("–".into(), |v| format!("{v:.3}")),
+                p.report
+                    .as_ref()
+                    .and_then(|x| x.mean_scene_spearman)
+                    .map_or("–".into(), |v| format!("{v:.3}")),
                 p.note.clone(),
             ]);
         }
         d.table(
-            &["rays", "predictor", "measured", "α", "mean error", "max error", "ρ pooled", "ρ per scene", "note"],
+            &[
+                "rays",
+                "predictor",
+                "measured",
+                "α",
+                "mean error",
+                "max error",
+                "ρ pooled",
+                "ρ per scene",
+                "note",
+            ],
             rows,
         );
         let mut by_kind: BTreeMap<&str, Vec<Point>> = BTreeMap::new();
@@ -551,7 +617,13 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
             points: pts,
             ..Default::default()
         };
-        add_svg(&mut d, dir, "plots/scaling.svg", "build time against N", plot.svg())?;
+        add_svg(
+            &mut d,
+            dir,
+            "plots/scaling.svg",
+            "build time against N",
+            plot.svg(),
+        )?;
     }
 
     // Images.

@@ -13,7 +13,7 @@ use sahara_geom::{Aabb, Vec3A};
 
 use crate::sweep::{self, BuildCtx, Job, SplitCandidate, Storage};
 use crate::tsah::Candidates;
-use crate::BuildInput;
+use crate::{BuildError, BuildInput};
 
 /// Rates a candidate split of a node (smaller is better). Implementations are called in
 /// parallel for the candidates of a node and must be deterministic.
@@ -68,10 +68,15 @@ struct Env<'a, R: Rater> {
 }
 
 /// Builds the tree.
-pub(crate) fn build<R: Rater>(input: &BuildInput, params: &EngineParams, rater: &R) -> Bvh {
+pub(crate) fn build<R: Rater>(
+    input: &BuildInput,
+    params: &EngineParams,
+    rater: &R,
+) -> Result<Bvh, BuildError> {
     if input.is_empty() {
-        return Bvh::empty();
+        return Ok(Bvh::empty());
     }
+    sweep::check_size(input)?;
     let env = Env {
         ctx: BuildCtx::new(
             input,
@@ -90,7 +95,7 @@ pub(crate) fn build<R: Rater>(input: &BuildInput, params: &EngineParams, rater: 
         let job = storage.root_job();
         rayon::scope(|s| drive(s, job, &env));
     }
-    storage.finish()
+    Ok(storage.finish())
 }
 
 fn drive<'s, R: Rater>(scope: &rayon::Scope<'s>, mut job: Job<'s>, env: &'s Env<'s, R>) {
