@@ -64,10 +64,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         builders.retain(|e| a.builders.iter().any(|b| b == e.name));
     }
     let kernels = kernels();
+    let slow_builders = if a.full {
+        calibrate(&builders, a.quiet)?
+    } else {
+        Vec::new()
+    };
     let opts = Options {
         timeout: Duration::from_secs(a.timeout.unwrap_or(if a.full { 1800 } else { 120 })),
         determinism: !a.no_determinism,
         verbose: !a.quiet,
+        slow_builders,
+        large_input: 100_000,
         ..Options::default()
     };
     println!(
@@ -184,4 +191,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     anyhow::ensure!(s.failed == 0, "{} hard-case checks failed", s.failed);
     Ok(())
+}
+
+/// Builds `soup` with 20 000 triangles with each builder (not `small_inputs_only`); those that
+/// take more than a second are skipped on inputs above 100 000 triangles in `--full` runs
+/// (they would take hours on the million-triangle meshes).
+fn calibrate(builders: &[sahara_build::registry::Entry], quiet: bool) -> anyhow::Result<Vec<String>> {
+    let tris = sahara_scene::soup(20_000, 1).triangles();
+    let input = sahara_build::BuildInput::new(&tris, sahara_build::CostModel::default())?;
+    let mut slow = Vec::new();
+    for e in builders.iter().filter(|e| !e.small_inputs_only) {
+        let t = Instant::now();
+        let _ = sahara_hardcases::catch_quiet(|| (e.make)().build(&input));
+        let secs = t.elapsed().as_secs_f64();
+        if !quiet {
+            eprintln!("calibration: {:<16} {secs:>7.2} s for 20 000 triangles", e.name);
+        }
+        if secs > 1.0 {
+            slow.push(e.name.to_string());
+        }
+    }
+    if !slow.is_empty() {
+        println!(
+            "slow builders (over 1 s for 20 000 triangles), skipped above 100 000 triangles: {}",
+            slow.join(", ")
+        );
+    }
+    Ok(slow)
 }

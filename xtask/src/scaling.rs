@@ -77,13 +77,22 @@ pub fn measure(
     runs: usize,
     max_seconds: f64,
     threads: Option<usize>,
+    respect_limits: bool,
     mut progress: impl FnMut(&str, usize, f64),
 ) -> Result<Vec<Series>> {
     let mut out = Vec::new();
     for name in builders {
         let builder = util::builder(name)?;
+        let limit = sahara_build::registry::entries()
+            .iter()
+            .find(|e| e.name == name.as_str())
+            .and_then(|e| e.max_practical_triangles)
+            .filter(|_| respect_limits);
         let mut points = Vec::new();
         for &n in sizes {
+            if limit.is_some_and(|m| n > m) {
+                break;
+            }
             let tris = scene.scene(n, sahara_scene::DEFAULT_SEED).triangles();
             let input = BuildInput::new(&tris, CostModel::default())?;
             let (times, bvh) =
@@ -131,6 +140,7 @@ pub fn run(a: Args) -> Result<()> {
         a.runs,
         a.max_seconds,
         a.threads,
+        a.builders.is_empty(),
         |b, n, s| eprintln!("{b:<16} N = {n:>9}: {:.3} s", s),
     )?;
     if a.json {

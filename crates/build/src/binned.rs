@@ -197,6 +197,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "binned SAH (Wald 2007), 32 centroid bins per axis, leaves <= 8",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(BinnedBuilder::named("binned", BinnedConfig::DEFAULT)),
         },
         Entry {
@@ -204,6 +205,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "binned SAH with 8 bins per axis (fastest)",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(BinnedBuilder::named("binned-8", BinnedConfig::FAST)),
         },
         Entry {
@@ -211,6 +213,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "binned SAH with 128 bins per axis",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(BinnedBuilder::named("binned-128", BinnedConfig::FINE)),
         },
     ]

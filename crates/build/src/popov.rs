@@ -216,6 +216,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "look-ahead SAH after Popov et al. 2009: depth 2, top-8 per level, frontier as leaves",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(PopovBuilder::named("popov-d2", PopovConfig::D2)),
         },
         Entry {
@@ -223,6 +224,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "look-ahead SAH after Popov et al. 2009: depth 3, top-4 per level, frontier as leaves",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(PopovBuilder::named("popov-d3", PopovConfig::D3)),
         },
         Entry {
@@ -230,6 +232,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "look-ahead SAH (depth 2, best split per axis) with frontier nodes costed by temporary sweep subtrees (Popov et al. + Wodniok & Goesele)",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(PopovBuilder::named("hybrid", PopovConfig::HYBRID)),
         },
     ]

@@ -14,6 +14,9 @@ pub struct Entry {
     pub spatial: bool,
     /// True when the preset is only practical for small inputs (an exhaustive reference).
     pub small_inputs_only: bool,
+    /// Above this many triangles the preset takes many minutes on two cores: the evaluation
+    /// skips it there unless it is asked for by name (`None`: no limit).
+    pub max_practical_triangles: Option<usize>,
     /// Creates the builder.
     pub make: fn() -> Box<dyn Builder>,
 }

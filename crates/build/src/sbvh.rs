@@ -249,6 +249,7 @@ pub fn registry_entries() -> Vec<Entry> {
         summary: "SBVH (Stich et al. 2009): full-sweep object splits + 128-bin spatial splits",
         spatial: true,
         small_inputs_only: false,
+        max_practical_triangles: None,
         make: || Box::new(SbvhBuilder::new(SbvhConfig::DEFAULT)),
     }]
 }

@@ -167,6 +167,7 @@ pub fn registry_entries() -> Vec<Entry> {
         summary: "full-sweep SAH (MacDonald & Booth 1990), the reference greedy builder",
         spatial: false,
         small_inputs_only: false,
+        max_practical_triangles: None,
         make: || Box::new(SweepBuilder::default()),
     }]
 }

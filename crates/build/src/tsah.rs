@@ -262,6 +262,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "temporary-subtree SAH (Wodniok & Goesele), every sweep candidate rated: reference, small inputs only",
             spatial: false,
             small_inputs_only: true,
+            max_practical_triangles: None,
             make: || Box::new(TsahBuilder::named("tsah-exhaustive", TsahConfig::EXHAUSTIVE)),
         },
         Entry {
@@ -269,6 +270,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "temporary-subtree SAH (Wodniok & Goesele), top-k sweep candidates, sweep temporaries: O(N log^2 N)",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(TsahBuilder::named("tsah-topk", TsahConfig::TOP_K)),
         },
         Entry {
@@ -276,6 +278,7 @@ pub fn registry_entries() -> Vec<Entry> {
             summary: "temporary-subtree SAH (Wodniok & Goesele), binned candidates and binned temporaries: the fastest variant",
             spatial: false,
             small_inputs_only: false,
+            max_practical_triangles: None,
             make: || Box::new(TsahBuilder::named("tsah-binned", TsahConfig::BINNED)),
         },
     ]

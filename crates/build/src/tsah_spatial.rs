@@ -184,6 +184,7 @@ pub fn registry_entries() -> Vec<Entry> {
                   rated by cost-only SBVH temporaries",
         spatial: true,
         small_inputs_only: false,
+        max_practical_triangles: Some(150_000),
         make: || Box::new(TsahSpatialBuilder::new(TsahSpatialConfig::DEFAULT)),
     }]
 }

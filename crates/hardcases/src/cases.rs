@@ -71,6 +71,8 @@ fn watertight(
     let mut rng = Pcg32::new(seed, 11);
     let (n_random, n_aimed) = match level {
         Level::Fast => (768, 1536),
+        // Brute force traces every ray through every triangle: fewer rays on huge meshes.
+        Level::Full if mesh.triangle_count() > 200_000 => (2048, 4096),
         Level::Full => (8192, 16384),
     };
     let targets = edge_and_vertex_targets(&mesh, n_aimed, &mut rng);

@@ -104,7 +104,8 @@ pub fn fixture_rays() -> Vec<Ray> {
 /// from brute force, if any: brute force (the watertight test) hits a triangle with zero area,
 /// hits a point outside the triangle's bounds (`false-hit`: degenerate triangles, or
 /// coordinates whose products overflow `f32`), hits at `t = +inf` (`inf-t`), or hits within
-/// a relative 1e-6 of `tmax` (`slab-tmax`).
+/// a relative 1e-6 of `tmin` or `tmax` or at `t = 0`, or rays with a subnormal reciprocal
+/// direction component (`slab-rounding`).
 pub fn explained_by_known_bug(tris: &[Triangle], ray: &Ray) -> Option<&'static str> {
     if !ray.is_valid() {
         return None;
@@ -124,16 +125,21 @@ pub fn explained_by_known_bug(tris: &[Triangle], ray: &Ray) -> Option<&'static s
         let p = ray.origin.as_dvec3() + ray.direction.as_dvec3() * f64::from(h.t);
         let b = tri.bounds();
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-        let tol = 1e-4
-            * (hi - lo)
-                .max_element()
-                .max(p.abs().max_element())
-                .max(1e-30);
-        if !p.is_finite() || (p - lo).min_element() < -tol || (hi - p).min_element() < -tol {
+        // Per axis: a relative 1e-4 of the box's extent and of the point's magnitude.
+        let tol = ((hi - lo) + p.abs()) * 1e-4 + 1e-30;
+        if !p.is_finite() || (p - lo + tol).min_element() < 0.0 || (hi - p + tol).min_element() < 0.0
+        {
             return Some("false-hit");
         }
-        if ray.tmax.is_finite() && f64::from(h.t) >= f64::from(ray.tmax) * (1.0 - 1e-6) {
-            return Some("slab-tmax");
+        let t = f64::from(h.t);
+        let near_end = |end: f32| (t - f64::from(end)).abs() <= 1e-6 * f64::from(end).abs();
+        let subnormal = ray
+            .inv_direction
+            .to_array()
+            .iter()
+            .any(|x| *x != 0.0 && x.abs() < f32::MIN_POSITIVE);
+        if near_end(ray.tmax) || near_end(ray.tmin) || t.abs() <= 1e-30 || subnormal {
+            return Some("slab-rounding");
         }
     }
     None

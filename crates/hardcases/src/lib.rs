@@ -252,15 +252,20 @@ pub const KNOWN_BUGS: &[KnownBug] = &[
             brute force. Documented as 'degenerate triangles never hit'.",
     },
     KnownBug {
-        id: "slab-tmax",
+        id: "slab-rounding",
         cases: &["bad-rays/tmax-on-surface", "bad-geometry/flat-x"],
         subject_contains: "/",
         detail_contains: "differ",
-        description: "sahara-geom intersect_aabb (and the wide kernels' copy): only the far slab \
-            distances are scaled by 1 + 2 gamma(3); the box entry distance, rounded up, is compared \
-            unscaled with the ray's tmax (and with the current closest hit), so a flat leaf box is \
-            culled although the watertight test hits its triangle at t <= tmax (tmax = 1, box \
-            entry 1.0000001, triangle t = 0.99999994). Shadow rays ending on a surface.",
+        description: "sahara-geom intersect_aabb (and the wide kernels' copy) is not conservative \
+            at the ends of the ray interval: only the far slab distances are scaled by \
+            1 + 2 gamma(3), and the entry distance, rounded up, is compared unscaled with the ray's \
+            tmax and with the current closest hit (a far distance of exactly 0 stays 0). So a \
+            flat leaf box is culled although the watertight test hits its triangle at t <= tmax \
+            (tmax = 1: box entry 1.0000001, triangle t = 0.99999994: shadow rays ending on a \
+            surface), a hit at t = 0 on a box touching the origin is lost, and an exact tie at the \
+            current hit distance in another leaf can be skipped (lowest-index rule broken). The \
+            gamma bound also fails for subnormal reciprocal directions (direction components \
+            near f32::MAX).",
     },
     KnownBug {
         id: "inf-t",

@@ -23,6 +23,12 @@ pub struct Options {
     pub determinism: bool,
     /// Print one progress line per builder to stderr.
     pub verbose: bool,
+    /// Builders skipped on inputs above [`Options::large_input`] triangles (the xtask's
+    /// `--full` run fills it from a calibration build: builders that need seconds for 20 000
+    /// triangles would need hours for a million).
+    pub slow_builders: Vec<String>,
+    /// See [`Options::slow_builders`].
+    pub large_input: usize,
 }
 
 impl Default for Options {
@@ -32,6 +38,8 @@ impl Default for Options {
             small_input_limit: 2000,
             determinism: true,
             verbose: false,
+            slow_builders: Vec::new(),
+            large_input: 100_000,
         }
     }
 }
@@ -110,6 +118,13 @@ pub fn run_case_with(
                 "skip: small_inputs_only and {} > {} triangles",
                 tris.len(),
                 opts.small_input_limit
+            ))
+        } else if tris.len() > opts.large_input && opts.slow_builders.iter().any(|b| b == entry.name)
+        {
+            Some(format!(
+                "skip: slow builder on {} > {} triangles",
+                tris.len(),
+                opts.large_input
             ))
         } else if case
             .only_builders

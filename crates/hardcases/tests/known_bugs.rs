@@ -48,11 +48,11 @@ fn zero_area_triangle_is_never_hit() {
     }
 }
 
-/// KNOWN_BUGS `slab-tmax`: a ray with `tmax = 1` ending on a triangle in the plane x = 5;
+/// KNOWN_BUGS `slab-rounding`: a ray with `tmax = 1` ending on a triangle in the plane x = 5;
 /// brute force hits it at t = 0.99999994, the scalar kernel culls its flat leaf box (entry
 /// distance 1.0000001 > tmax).
 #[test]
-#[ignore = "bug: sahara-geom intersect_aabb culls a flat box hit at t <= tmax (slab-tmax)"]
+#[ignore = "bug: sahara-geom intersect_aabb culls a flat box hit at t <= tmax (slab-rounding)"]
 fn shadow_ray_ending_on_a_flat_leaf_hits_like_brute_force() {
     let tris = [Triangle::new(
         Vec3A::new(5.0, 0.15091252, 0.121218204),

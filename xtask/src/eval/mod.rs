@@ -122,6 +122,8 @@ pub struct TraceRow {
 pub struct Results {
     pub meta: Meta,
     pub scenes: Vec<SceneInfo>,
+    /// Builders left out on scenes where they are impractical.
+    pub skipped: Vec<String>,
     pub builds: Vec<BuildReport>,
     pub traces: Vec<TraceRow>,
     pub predictors: Vec<predict::PredictorRow>,
@@ -156,13 +158,33 @@ fn default_scenes(quick: bool) -> Vec<String> {
     v
 }
 
+/// The quick matrix keeps one preset of each strategy.
+const QUICK_BUILDERS: &[&str] = &[
+    "sweep",
+    "sbvh",
+    "binned",
+    "tsah-topk",
+    "tsah-binned",
+    "popov-d2",
+    "hybrid",
+];
+
 fn default_builders(quick: bool) -> Vec<String> {
     sahara_build::registry::entries()
         .into_iter()
         .filter(|e| !e.small_inputs_only)
-        .filter(|e| !quick || !e.name.contains("sbvh") || e.name == "sbvh")
+        .filter(|e| !quick || QUICK_BUILDERS.contains(&e.name))
         .map(|e| e.name.to_string())
         .collect()
+}
+
+/// True when `builder` should be skipped on a scene of `triangles` (only for builders the
+/// user did not name: a named builder always runs).
+fn impractical(builder: &str, triangles: usize, named: bool) -> bool {
+    !named
+        && sahara_build::registry::entries()
+            .iter()
+            .any(|e| e.name == builder && e.max_practical_triangles.is_some_and(|m| triangles > m))
 }
 
 impl Args {
@@ -280,6 +302,7 @@ pub fn run(a: Args) -> Result<()> {
     let mut builds = Vec::new();
     let mut traces: Vec<TraceRow> = Vec::new();
     let mut trees_for_predictors: Vec<predict::SceneTrees> = Vec::new();
+    let mut skipped: Vec<String> = Vec::new();
     for scene_name in &s.scenes {
         bar.set_message(format!("loading {scene_name}"));
         let scene = match util::load_scene_from(&catalog, scene_name) {
@@ -292,6 +315,15 @@ pub fn run(a: Args) -> Result<()> {
         };
         let mut trees = Vec::new();
         for b in &s.builders {
+            if impractical(b, scene.triangles.len(), !a.builders.is_empty()) {
+                skipped.push(format!(
+                    "{b} on {} ({} triangles; name it with --builders to run it)",
+                    scene.name,
+                    scene.triangles.len()
+                ));
+                bar.inc((1 + kinds.len() * s.layouts.len()) as u64);
+                continue;
+            }
             bar.set_message(format!("{} / build {b}", scene.name));
             let runs = adaptive_runs(&scene.triangles, b, s.build_runs, a.threads)?;
             let (rep, bvh) =
@@ -415,6 +447,7 @@ pub fn run(a: Args) -> Result<()> {
             if s.quick { 1 } else { 3 },
             if s.quick { 5.0 } else { 300.0 },
             a.threads,
+            a.builders.is_empty(),
             |b, n, t| eprintln!("  {b:<16} N = {n:>9}: {t:.3} s"),
         )?
     };
@@ -429,6 +462,7 @@ pub fn run(a: Args) -> Result<()> {
             seconds: t0.elapsed().as_secs_f64(),
         },
         scenes,
+        skipped,
         builds,
         traces,
         predictors,

@@ -282,6 +282,13 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
          Work ratios compare the work per ray in SAH units (c_t · inner nodes visited + c_i · triangles tested), \
          which machine noise cannot touch: > 1 means less work than the reference.");
 
+    if !r.skipped.is_empty() {
+        d.p(format!(
+            "Left out as impractical at this size (minutes per build on two cores): {}.",
+            r.skipped.join("; ")
+        ));
+    }
+
     // Main table: relative trace performance against sweep, per ray type, first layout.
     let builders: Vec<&String> = s.builders.iter().collect();
     let kinds: Vec<String> = {
