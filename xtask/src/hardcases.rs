@@ -196,7 +196,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 /// Builds `soup` with 20 000 triangles with each builder (not `small_inputs_only`); those that
 /// take more than a second are skipped on inputs above 100 000 triangles in `--full` runs
 /// (they would take hours on the million-triangle meshes).
-fn calibrate(builders: &[sahara_build::registry::Entry], quiet: bool) -> anyhow::Result<Vec<String>> {
+fn calibrate(
+    builders: &[sahara_build::registry::Entry],
+    quiet: bool,
+) -> anyhow::Result<Vec<String>> {
     let tris = sahara_scene::soup(20_000, 1).triangles();
     let input = sahara_build::BuildInput::new(&tris, sahara_build::CostModel::default())?;
     let mut slow = Vec::new();
@@ -205,7 +208,10 @@ fn calibrate(builders: &[sahara_build::registry::Entry], quiet: bool) -> anyhow:
         let _ = sahara_hardcases::catch_quiet(|| (e.make)().build(&input));
         let secs = t.elapsed().as_secs_f64();
         if !quiet {
-            eprintln!("calibration: {:<16} {secs:>7.2} s for 20 000 triangles", e.name);
+            eprintln!(
+                "calibration: {:<16} {secs:>7.2} s for 20 000 triangles",
+                e.name
+            );
         }
         if secs > 1.0 {
             slow.push(e.name.to_string());

@@ -53,3 +53,8 @@ pub trait Builder: Send + Sync {
     /// Builds a tree over the input's primitives. An empty input gives [`Bvh::empty`].
     fn build(&self, input: &BuildInput) -> Result<Bvh, BuildError>;
 }
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

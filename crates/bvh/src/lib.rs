@@ -87,3 +87,8 @@ impl Bvh {
         &self.prim_indices[first..first + node.count as usize]
     }
 }
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

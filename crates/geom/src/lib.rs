@@ -43,3 +43,8 @@ pub use triangle::Triangle;
 
 /// An axis of 3D space: 0 = x, 1 = y, 2 = z.
 pub type Axis = usize;
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

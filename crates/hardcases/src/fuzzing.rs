@@ -127,7 +127,9 @@ pub fn explained_by_known_bug(tris: &[Triangle], ray: &Ray) -> Option<&'static s
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
         // Per axis: a relative 1e-4 of the box's extent and of the point's magnitude.
         let tol = ((hi - lo) + p.abs()) * 1e-4 + 1e-30;
-        if !p.is_finite() || (p - lo + tol).min_element() < 0.0 || (hi - p + tol).min_element() < 0.0
+        if !p.is_finite()
+            || (p - lo + tol).min_element() < 0.0
+            || (hi - p + tol).min_element() < 0.0
         {
             return Some("false-hit");
         }

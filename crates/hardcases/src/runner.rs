@@ -119,7 +119,8 @@ pub fn run_case_with(
                 tris.len(),
                 opts.small_input_limit
             ))
-        } else if tris.len() > opts.large_input && opts.slow_builders.iter().any(|b| b == entry.name)
+        } else if tris.len() > opts.large_input
+            && opts.slow_builders.iter().any(|b| b == entry.name)
         {
             Some(format!(
                 "skip: slow builder on {} > {} triangles",

@@ -75,8 +75,12 @@ fn procedural_scenes() {
 fn every_kernel_is_listed() {
     let k = kernels();
     assert!(k.contains(&sahara_hardcases::Kernel::Bvh2));
-    assert!(k.contains(&sahara_hardcases::Kernel::Bvh8(sahara_traverse::Backend::Portable)));
-    assert!(k.contains(&sahara_hardcases::Kernel::Bvh4(sahara_traverse::Backend::Portable)));
+    assert!(k.contains(&sahara_hardcases::Kernel::Bvh8(
+        sahara_traverse::Backend::Portable
+    )));
+    assert!(k.contains(&sahara_hardcases::Kernel::Bvh4(
+        sahara_traverse::Backend::Portable
+    )));
 }
 
 #[test]

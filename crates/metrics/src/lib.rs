@@ -45,3 +45,8 @@ pub use weighted::{
     camera_box_weight, closest_hits, node_weights, primary_ray_metrics, segment_node_weights,
     weighted_sah, weighted_sah_from_node_weights, CameraGrid, Hit, PrimaryRayMetrics,
 };
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

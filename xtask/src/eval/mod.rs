@@ -304,11 +304,11 @@ pub fn run(a: Args) -> Result<()> {
     let mut trees_for_predictors: Vec<predict::SceneTrees> = Vec::new();
     let mut skipped: Vec<String> = Vec::new();
     for scene_name in &s.scenes {
-        bar.set_message(format!("loading {scene_name}"));
+        status(&bar, format!("loading {scene_name}"));
         let scene = match util::load_scene_from(&catalog, scene_name) {
             Ok(sc) => sc,
             Err(e) => {
-                bar.println(format!("skipping scene {scene_name}: {e:#}"));
+                eprintln!("skipping scene {scene_name}: {e:#}");
                 bar.inc((s.builders.len() * (1 + kinds.len() * s.layouts.len())) as u64);
                 continue;
             }
@@ -324,7 +324,7 @@ pub fn run(a: Args) -> Result<()> {
                 bar.inc((1 + kinds.len() * s.layouts.len()) as u64);
                 continue;
             }
-            bar.set_message(format!("{} / build {b}", scene.name));
+            status(&bar, format!("{} / build {b}", scene.name));
             let runs = adaptive_runs(&scene.triangles, b, s.build_runs, a.threads)?;
             let (rep, bvh) =
                 build_and_measure(&scene.name, &scene.triangles, b, a.threads, runs, true)?;
@@ -378,11 +378,10 @@ pub fn run(a: Args) -> Result<()> {
                 .map(|(_, bvh)| trace_cmd::make_tracer(layout, bvh, &scene.triangles))
                 .collect::<Result<_>>()?;
             for set in &sets {
-                bar.set_message(format!(
-                    "{} / trace {layout} {}",
-                    scene.name,
-                    set.kind.name()
-                ));
+                status(
+                    &bar,
+                    format!("{} / trace {layout} {}", scene.name, set.kind.name()),
+                );
                 // Passes are interleaved across builders (one warm-up round, then `passes`
                 // timed rounds), so that drift of a shared machine hits every tree alike.
                 let timings =
@@ -474,6 +473,19 @@ pub fn run(a: Args) -> Result<()> {
     println!("report written to {}", out.join("report.md").display());
     println!("                  {}", out.join("report.html").display());
     Ok(())
+}
+
+/// Shows `msg` on the progress bar, or as a log line when stderr is not a terminal (the bar
+/// is hidden there).
+fn status(bar: &ProgressBar, msg: String) {
+    if bar.is_hidden() {
+        eprintln!(
+            "[{:>4}/{}] {msg}",
+            bar.position(),
+            bar.length().unwrap_or(0)
+        );
+    }
+    bar.set_message(msg);
 }
 
 /// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds, each round
