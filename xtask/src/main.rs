@@ -1,6 +1,8 @@
 //! `cargo xtask`: the project's tasks (see README.md and DESIGN.md's command-line contract).
 
 mod bvh_cmd;
+#[cfg(feature = "embree")]
+mod embree;
 mod eval;
 mod scaling;
 mod scenes_cmd;

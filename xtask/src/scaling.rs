@@ -69,7 +69,9 @@ pub fn fit_exponent(points: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
-/// Measures every builder on every size.
+/// Measures every builder on every size. With `respect_limits`, a builder stops at sizes above
+/// its registry entry's practical limit.
+#[allow(clippy::too_many_arguments)]
 pub fn measure(
     builders: &[String],
     scene: Procedural,

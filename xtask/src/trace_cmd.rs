@@ -21,9 +21,13 @@ pub struct Args {
     /// primary, diffuse, ao, or a ray file (32-byte records, see DESIGN.md).
     #[arg(long, default_value = "primary")]
     rays: String,
-    /// Traversal layout: bvh2, bvh4 or bvh8.
+    /// Traversal layout: bvh2, bvh4 or bvh8 (or embree, the same as `--engine embree`).
     #[arg(long, default_value = "bvh2")]
     layout: String,
+    /// Trace engine: sahara (the kernels of `--layout`) or embree (Intel Embree 3 over its own
+    /// MEDIUM-quality BVH; needs `--features embree`, see docs/embree.md).
+    #[arg(long, default_value = "sahara", value_parser = ["sahara", "embree"])]
+    engine: String,
     /// Rayon threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -75,6 +79,15 @@ pub struct TraceReport {
 /// Layout names the tracer accepts.
 pub const LAYOUTS: &[&str] = &["bvh2", "bvh4", "bvh8"];
 
+/// Layout names of this build: [`LAYOUTS`], plus `embree` with the `embree` feature.
+pub fn layouts() -> Vec<&'static str> {
+    let mut l = LAYOUTS.to_vec();
+    if cfg!(feature = "embree") {
+        l.push("embree");
+    }
+    l
+}
+
 /// A tracer of `layout` over `bvh`.
 pub fn make_tracer<'a>(
     layout: &str,
@@ -85,7 +98,15 @@ pub fn make_tracer<'a>(
         "bvh2" => Ok(Box::new(Bvh2Tracer::new(bvh, tris))),
         "bvh4" => Ok(Box::new(sahara_trace::WideTracer::<4>::new(bvh, tris))),
         "bvh8" => Ok(Box::new(sahara_trace::WideTracer::<8>::new(bvh, tris))),
-        other => bail!("unknown layout '{other}' (known: {})", LAYOUTS.join(", ")),
+        // Embree builds (once per triangle slice) and traces its own BVH; `bvh` is unused.
+        #[cfg(feature = "embree")]
+        "embree" => Ok(Box::new(crate::embree::EmbreeTracer::new(tris)?)),
+        #[cfg(not(feature = "embree"))]
+        "embree" => bail!(
+            "built without the `embree` feature: install libembree-dev and run \
+             `cargo run --release -p xtask --features embree -- trace ...` (docs/embree.md)"
+        ),
+        other => bail!("unknown layout '{other}' (known: {})", layouts().join(", ")),
     }
 }
 
@@ -180,8 +201,21 @@ pub fn run(a: Args) -> Result<()> {
     let input =
         sahara_build::BuildInput::new(&scene.triangles, sahara_build::CostModel::default())?;
     let bvh = util::with_threads(a.threads, || builder.build(&input))??;
-    let tracer = make_tracer(&a.layout, &bvh, &scene.triangles)?;
-    let set = ray_set(&a.rays, &scene, tracer.as_ref(), a.width, a.height, a.seed)?;
+    let layout = if a.engine == "embree" {
+        "embree"
+    } else {
+        a.layout.as_str()
+    };
+    let tracer = make_tracer(layout, &bvh, &scene.triangles)?;
+    // Secondary rays start at the primary hits of the tracer that generates them: sahara's
+    // kernels (which agree ray by ray), so that Embree traces exactly the rays bvh* trace.
+    let reference = Bvh2Tracer::new(&bvh, &scene.triangles);
+    let generator: &dyn Tracer = if layout == "embree" {
+        &reference
+    } else {
+        tracer.as_ref()
+    };
+    let set = ray_set(&a.rays, &scene, generator, a.width, a.height, a.seed)?;
     if let Some(p) = &a.dump_rays {
         sahara_trace::write_rays(p, &set.rays)?;
     }
@@ -198,7 +232,7 @@ pub fn run(a: Args) -> Result<()> {
         &scene.name,
         scene.triangles.len(),
         &a.builder,
-        &a.layout,
+        layout,
         &set,
         a.threads,
         timing,

@@ -302,7 +302,8 @@ pub fn check_scene_bytes_with(data: &[u8], tolerate_known_bugs: bool) -> Result<
             .map_err(|p| format!("{}: validate panicked: {p}", entry.name))?
             .map_err(|e| format!("{}: invalid tree: {e}", entry.name))?;
         let cost = sahara_metrics::sah(&bvh, &CostModel::default());
-        if !cost.is_finite() && !(tolerate_known_bugs && extent_overflows(&tris)) {
+        let explained = tolerate_known_bugs && extent_overflows(&tris);
+        if !cost.is_finite() && !explained {
             return Err(format!("{}: SAH cost {cost}", entry.name));
         }
         catch_quiet(|| traces_like_brute(&bvh, &tris, &rays, tolerate_known_bugs))

@@ -164,8 +164,11 @@ pub(crate) fn probe(tris: &[Triangle], n: usize, rng: &mut Pcg32) -> Vec<Ray> {
     rays
 }
 
+/// Makes a ray bad in one way.
+pub(crate) type Corruption = fn(Ray) -> Ray;
+
 /// The corruptions applied to each base ray of the bad-ray cases, with their names.
-pub(crate) fn corruptions() -> Vec<(&'static str, fn(Ray) -> Ray)> {
+pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
     vec![
         ("origin.x=NaN", |r| {
             Ray::new(

@@ -66,11 +66,7 @@ pub fn run_case_with(
     let mut out = Vec::new();
     let tris = Arc::clone(&case.triangles);
     let input_start = Instant::now();
-    let input = catch_quiet(|| {
-        BuildInput::new(&tris, CostModel::default())
-            .map(|_| ())
-            .map_err(|e| e)
-    });
+    let input = catch_quiet(|| BuildInput::new(&tris, CostModel::default()).map(|_| ()));
     let input_secs = input_start.elapsed().as_secs_f64();
     let (ok, detail) = match (&input, case.expect_non_finite) {
         (Err(p), _) => (false, format!("BuildInput::new panicked: {p}")),

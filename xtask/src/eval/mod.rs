@@ -212,7 +212,7 @@ impl Args {
             builders,
             rays: self.rays.clone(),
             layouts: if self.layouts.is_empty() {
-                trace_cmd::LAYOUTS.iter().map(|s| s.to_string()).collect()
+                trace_cmd::layouts().iter().map(|s| s.to_string()).collect()
             } else {
                 self.layouts.clone()
             },
@@ -281,7 +281,7 @@ pub fn run(a: Args) -> Result<()> {
         .collect::<Result<_>>()?;
     for l in &s.layouts {
         anyhow::ensure!(
-            trace_cmd::LAYOUTS.contains(&l.as_str()),
+            trace_cmd::layouts().contains(&l.as_str()),
             "unknown layout '{l}'"
         );
     }

@@ -1,0 +1,431 @@
+//! Intel Embree 3 as a [`Tracer`], for a side-by-side row next to sahara's own layouts.
+//!
+//! Only compiled with the cargo feature `embree` (off by default; it links Debian's
+//! `libembree-dev`, 3.13, through the `embree` binding crate, whose build script emits
+//! `-l embree3`). See docs/embree.md:
+//!
+//! ```text
+//! cargo run --release -p xtask --features embree -- trace --scene sibenik --builder sweep \
+//!     --engine embree --rays diffuse --threads 1
+//! ```
+//!
+//! Embree builds its own BVH from the triangles (the builder's tree is ignored): a scene of
+//! quality MEDIUM, scene flags NONE (Embree's fast, non-robust mode), one triangle geometry
+//! whose primitive ids are the indices of the caller's triangle slice. Queries use the
+//! single-ray API (`rtcIntersect1` for closest hits, `rtcOccluded1` for any hit) with an
+//! incoherent intersect context, as the reference figures of BASELINES.md did.
+//!
+//! Two environment variables change the scene, for experiments only (the report's layout
+//! name stays `embree`): `SAHARA_EMBREE_QUALITY=low|medium|high` and
+//! `SAHARA_EMBREE_ROBUST=1` (`RTC_SCENE_FLAG_ROBUST`). `SAHARA_EMBREE_CONFIG` is passed to
+//! `rtcNewDevice` (e.g. `isa=avx2` or `verbose=1`, which prints the ISA to stdout).
+//!
+//! Departures from the [`Tracer`] contract, inherent to Embree:
+//!
+//! * Embree's triangle test is not watertight and its tie-break at equal distance is not
+//!   "lowest primitive index", so a few rays may hit another triangle than sahara's kernels;
+//! * Embree requires `tnear >= 0`, so a negative `tmin` is clamped to 0;
+//! * the work counters stay zero (Embree does not expose them).
+//!
+//! Invalid rays ([`Ray::is_valid`]) miss without calling Embree (its behaviour on NaN is
+//! undefined).
+
+use anyhow::{bail, ensure, Context, Result};
+use embree::sys;
+use sahara_geom::{Ray, Triangle};
+use sahara_trace::{Hit, Tracer, WorkCounters};
+use std::ffi::CString;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex, Weak};
+
+/// `RTC_INVALID_GEOMETRY_ID`.
+const INVALID_ID: u32 = u32::MAX;
+
+// The binding's structs must match Debian's 3.13 headers (RTC_MAX_INSTANCE_LEVEL_COUNT 1,
+// RTC_MIN_WIDTH 0): RTCRay 48 bytes, RTCHit 32, RTCRayHit 80, all aligned to 16.
+const _: () = {
+    assert!(std::mem::size_of::<sys::RTCRay>() == 48);
+    assert!(std::mem::align_of::<sys::RTCRay>() == 16);
+    assert!(std::mem::size_of::<sys::RTCHit>() == 32);
+    assert!(std::mem::size_of::<sys::RTCRayHit>() == 80);
+    assert!(std::mem::align_of::<sys::RTCRayHit>() == 16);
+    assert!(std::mem::size_of::<sys::RTCIntersectContext>() == 24);
+};
+
+/// How the Embree scene is built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Config {
+    /// `RTC_BUILD_QUALITY_{LOW,MEDIUM,HIGH}` as 0, 1, 2.
+    quality: u8,
+    /// `RTC_SCENE_FLAG_ROBUST`.
+    robust: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            quality: 1,
+            robust: false,
+        }
+    }
+}
+
+impl Config {
+    /// The default (MEDIUM, not robust), changed by `SAHARA_EMBREE_QUALITY` and
+    /// `SAHARA_EMBREE_ROBUST`.
+    pub fn from_env() -> Result<Self> {
+        let mut c = Self::default();
+        if let Ok(q) = std::env::var("SAHARA_EMBREE_QUALITY") {
+            c.quality = match q.to_ascii_lowercase().as_str() {
+                "low" => 0,
+                "medium" | "" => 1,
+                "high" => 2,
+                other => bail!("SAHARA_EMBREE_QUALITY: '{other}' is not low, medium or high"),
+            };
+        }
+        if let Ok(r) = std::env::var("SAHARA_EMBREE_ROBUST") {
+            c.robust = !matches!(r.as_str(), "" | "0" | "false" | "no");
+        }
+        Ok(c)
+    }
+
+    fn quality(self) -> sys::RTCBuildQuality {
+        match self.quality {
+            0 => sys::RTCBuildQuality::LOW,
+            2 => sys::RTCBuildQuality::HIGH,
+            _ => sys::RTCBuildQuality::MEDIUM,
+        }
+    }
+
+    fn flags(self) -> sys::RTCSceneFlags {
+        if self.robust {
+            sys::RTCSceneFlags::ROBUST
+        } else {
+            sys::RTCSceneFlags::NONE
+        }
+    }
+}
+
+/// An Embree device with one committed scene. Released on drop.
+struct Scene {
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+}
+
+// SAFETY: a committed Embree scene may be queried from any number of threads at once
+// (Embree's API documentation, "Thread safety"); it is never modified after `build`.
+unsafe impl Send for Scene {}
+// SAFETY: as above.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: both handles were created by `build` and are released exactly once.
+        unsafe {
+            if !self.scene.is_null() {
+                sys::rtcReleaseScene(self.scene);
+            }
+            sys::rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+/// The device's pending error, as a `Result`.
+fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
+    // SAFETY: `device` is a live device handle.
+    let e = unsafe { sys::rtcGetDeviceError(device) };
+    ensure!(e == sys::RTCError::NONE, "Embree error {e:?} while {what}");
+    Ok(())
+}
+
+impl Scene {
+    /// Copies `tris` into a new Embree device and scene and commits it (builds the BVH).
+    fn build(tris: &[Triangle], config: Config) -> Result<Self> {
+        let n = tris.len();
+        ensure!(
+            n.checked_mul(3).is_some_and(|v| v <= u32::MAX as usize),
+            "{n} triangles are too many for one Embree geometry"
+        );
+        let device_config = std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default();
+        let device_config =
+            CString::new(device_config).context("SAHARA_EMBREE_CONFIG contains a NUL byte")?;
+        // SAFETY: a NUL-terminated configuration string.
+        let device = unsafe { sys::rtcNewDevice(device_config.as_ptr()) };
+        if device.is_null() {
+            // SAFETY: a null device asks for the thread's last device-creation error.
+            let e = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            bail!("rtcNewDevice failed ({e:?}); is libembree3 usable on this CPU?");
+        }
+        let mut s = Scene {
+            device,
+            scene: std::ptr::null_mut(),
+        };
+        // SAFETY: every handle below is checked for null before use; the buffers returned by
+        // rtcSetNewGeometryBuffer are owned by the geometry, sized for the item counts given
+        // and written in bounds; the geometry is released after being attached (the scene
+        // keeps its own reference).
+        unsafe {
+            s.scene = sys::rtcNewScene(device);
+            check(device, "creating the scene")?;
+            ensure!(!s.scene.is_null(), "rtcNewScene returned null");
+            if n > 0 {
+                let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+                check(device, "creating the triangle geometry")?;
+                ensure!(!geom.is_null(), "rtcNewGeometry returned null");
+                let filled = fill_buffers(geom, tris);
+                if filled.is_ok() {
+                    sys::rtcCommitGeometry(geom);
+                    sys::rtcAttachGeometry(s.scene, geom);
+                }
+                sys::rtcReleaseGeometry(geom);
+                filled?;
+                check(device, "committing the triangle geometry")?;
+            }
+            sys::rtcSetSceneBuildQuality(s.scene, config.quality());
+            sys::rtcSetSceneFlags(s.scene, config.flags());
+            sys::rtcCommitScene(s.scene);
+            check(device, "committing the scene (building its BVH)")?;
+        }
+        Ok(s)
+    }
+}
+
+/// Writes the vertex (three per triangle, FLOAT3 with a 16-byte stride) and index buffers
+/// of `geom`.
+///
+/// # Safety
+///
+/// `geom` is a live triangle geometry; `tris.len() * 3` fits in `u32`.
+unsafe fn fill_buffers(geom: sys::RTCGeometry, tris: &[Triangle]) -> Result<()> {
+    let n = tris.len();
+    // SAFETY (whole body): the caller's contract; each buffer is checked for null and holds
+    // exactly the item count requested, with the stride given.
+    unsafe {
+        let vb = sys::rtcSetNewGeometryBuffer(
+            geom,
+            sys::RTCBufferType::VERTEX,
+            0,
+            sys::RTCFormat::FLOAT3,
+            16,
+            3 * n,
+        ) as *mut [f32; 4];
+        ensure!(!vb.is_null(), "Embree could not allocate the vertex buffer");
+        let vertices = std::slice::from_raw_parts_mut(vb, 3 * n);
+        for (out, t) in vertices.chunks_exact_mut(3).zip(tris) {
+            for (o, p) in out.iter_mut().zip(&t.v) {
+                *o = [p.x, p.y, p.z, 0.0];
+            }
+        }
+        let ib = sys::rtcSetNewGeometryBuffer(
+            geom,
+            sys::RTCBufferType::INDEX,
+            0,
+            sys::RTCFormat::UINT3,
+            12,
+            n,
+        ) as *mut [u32; 3];
+        ensure!(!ib.is_null(), "Embree could not allocate the index buffer");
+        let indices = std::slice::from_raw_parts_mut(ib, n);
+        for (i, out) in indices.iter_mut().enumerate() {
+            let b = 3 * i as u32;
+            *out = [b, b + 1, b + 2];
+        }
+    }
+    Ok(())
+}
+
+/// What identifies a built scene in the cache: the slice's address and length, a hash of its
+/// coordinates (so that a reused address with other contents is not mistaken for it) and the
+/// configuration.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Key {
+    ptr: usize,
+    len: usize,
+    hash: u64,
+    config: Config,
+}
+
+fn content_hash(tris: &[Triangle]) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for t in tris {
+        for p in &t.v {
+            p.to_array().map(f32::to_bits).hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+/// Scenes alive somewhere, so that the tracers of several builders' trees over the same
+/// triangles (the eval makes one per builder) share one Embree build.
+static CACHE: Mutex<Vec<(Key, Weak<Scene>)>> = Mutex::new(Vec::new());
+
+/// A tracer answering queries with Embree over its own BVH of `tris` (see the module
+/// documentation). Cheap to clone; the scene is released with the last clone.
+#[derive(Clone)]
+pub struct EmbreeTracer {
+    scene: Arc<Scene>,
+}
+
+impl EmbreeTracer {
+    /// The tracer over `tris`, building the Embree scene unless one over the same triangles
+    /// with the same configuration ([`Config::from_env`]) is still alive.
+    pub fn new(tris: &[Triangle]) -> Result<Self> {
+        let config = Config::from_env()?;
+        let key = Key {
+            ptr: tris.as_ptr() as usize,
+            len: tris.len(),
+            hash: content_hash(tris),
+            config,
+        };
+        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+        cache.retain(|(_, w)| w.strong_count() > 0);
+        if let Some(scene) = cache
+            .iter()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, w)| w.upgrade())
+        {
+            return Ok(Self { scene });
+        }
+        let scene = Arc::new(Scene::build(tris, config)?);
+        cache.push((key, Arc::downgrade(&scene)));
+        Ok(Self { scene })
+    }
+
+    /// Embree's ray for `ray` (valid rays only): `tnear` clamped to 0, full mask.
+    #[inline]
+    fn rtc_ray(ray: &Ray) -> sys::RTCRay {
+        sys::RTCRay {
+            org_x: ray.origin.x,
+            org_y: ray.origin.y,
+            org_z: ray.origin.z,
+            tnear: ray.tmin.max(0.0),
+            dir_x: ray.direction.x,
+            dir_y: ray.direction.y,
+            dir_z: ray.direction.z,
+            time: 0.0,
+            tfar: ray.tmax,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        }
+    }
+
+    /// What `rtcInitIntersectContext` sets.
+    #[inline]
+    fn context() -> sys::RTCIntersectContext {
+        sys::RTCIntersectContext {
+            flags: sys::RTCIntersectContextFlags::INCOHERENT,
+            filter: None,
+            instID: [INVALID_ID],
+        }
+    }
+}
+
+impl Tracer for EmbreeTracer {
+    fn name(&self) -> &str {
+        "embree"
+    }
+
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, _stats: &mut WorkCounters) -> Hit {
+        self.closest_hit_fast(ray)
+    }
+
+    #[inline]
+    fn any_hit(&self, ray: &Ray, _stats: &mut WorkCounters) -> bool {
+        self.any_hit_fast(ray)
+    }
+
+    #[inline]
+    fn closest_hit_fast(&self, ray: &Ray) -> Hit {
+        if !ray.is_valid() {
+            return Hit::MISS;
+        }
+        let mut rh = sys::RTCRayHit {
+            ray: Self::rtc_ray(ray),
+            hit: sys::RTCHit {
+                Ng_x: 0.0,
+                Ng_y: 0.0,
+                Ng_z: 0.0,
+                u: 0.0,
+                v: 0.0,
+                primID: INVALID_ID,
+                geomID: INVALID_ID,
+                instID: [INVALID_ID],
+            },
+        };
+        let mut ctx = Self::context();
+        // SAFETY: a committed scene; `rh` is a 16-byte aligned RTCRayHit with finite origin
+        // and direction and 0 <= tnear <= tfar.
+        unsafe { sys::rtcIntersect1(self.scene.scene, &mut ctx, &mut rh) };
+        if rh.hit.geomID == INVALID_ID {
+            Hit::MISS
+        } else {
+            Hit {
+                t: rh.ray.tfar,
+                prim: rh.hit.primID,
+                u: rh.hit.u,
+                v: rh.hit.v,
+            }
+        }
+    }
+
+    #[inline]
+    fn any_hit_fast(&self, ray: &Ray) -> bool {
+        if !ray.is_valid() {
+            return false;
+        }
+        let mut r = Self::rtc_ray(ray);
+        let mut ctx = Self::context();
+        // SAFETY: as in `closest_hit_fast`, with an RTCRay.
+        unsafe { sys::rtcOccluded1(self.scene.scene, &mut ctx, &mut r) };
+        r.tfar == f32::NEG_INFINITY
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::Vec3A;
+
+    fn quad() -> Vec<Triangle> {
+        let p = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
+        vec![
+            Triangle::new(p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1.0)),
+            Triangle::new(p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)),
+        ]
+    }
+
+    #[test]
+    fn hits_misses_and_invalid_rays() {
+        let tris = quad();
+        let t = EmbreeTracer::new(&tris).unwrap();
+        let down = Vec3A::new(0.0, 0.0, -1.0);
+        let r = Ray::new(Vec3A::new(0.25, 0.25, 2.0), down, 0.0, f32::INFINITY);
+        let h = t.closest_hit_fast(&r);
+        assert_eq!(h.prim, 0);
+        assert!((h.t - 2.0).abs() < 1e-5);
+        assert!((h.u - 0.25).abs() < 1e-5 && (h.v - 0.25).abs() < 1e-5);
+        assert!(t.any_hit_fast(&r));
+        let r = Ray::new(Vec3A::new(0.75, 0.75, 2.0), down, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&r).prim, 1);
+        let miss = Ray::new(Vec3A::new(2.0, 2.0, 2.0), down, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&miss), Hit::MISS);
+        assert!(!t.any_hit_fast(&miss));
+        let short = Ray::new(Vec3A::new(0.25, 0.25, 2.0), down, 0.0, 1.0);
+        assert!(!t.any_hit_fast(&short));
+        let nan = Ray::new(Vec3A::new(f32::NAN, 0.0, 2.0), down, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&nan), Hit::MISS);
+        assert!(!t.any_hit_fast(&nan));
+        // A second tracer over the same slice shares the scene.
+        let t2 = EmbreeTracer::new(&tris).unwrap();
+        assert!(Arc::ptr_eq(&t.scene, &t2.scene));
+    }
+
+    #[test]
+    fn empty_scene_misses() {
+        let t = EmbreeTracer::new(&[]).unwrap();
+        let r = Ray::new(Vec3A::ZERO, Vec3A::X, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&r), Hit::MISS);
+    }
+}
