@@ -4,6 +4,7 @@ mod bvh_cmd;
 #[cfg(feature = "embree")]
 mod embree;
 mod eval;
+mod hardcases;
 mod scaling;
 mod scenes_cmd;
 mod trace_cmd;
@@ -32,6 +33,9 @@ enum Cmd {
     Eval(eval::Args),
     /// Measure build time against N and fit the exponent.
     Scaling(scaling::Args),
+    /// The numerical-stability suite: every builder and kernel on hard cases (fast subset by
+    /// default, `--full` for everything), printed as a table.
+    Hardcases(hardcases::Args),
     /// Every builder on every scene: validate, and traversal against brute force ray by ray
     /// (the heavy version of the test suite's check; takes minutes).
     Verify,
@@ -47,6 +51,7 @@ fn main() {
         Cmd::Eval(a) => eval::run(a),
         Cmd::Scaling(a) => scaling::run(a),
         Cmd::Verify => verify(),
+        Cmd::Hardcases(a) => hardcases::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -278,6 +278,18 @@ pub const KNOWN_BUGS: &[KnownBug] = &[
             (t = inf with a primitive index), so geom and the wide kernels must change together.",
     },
     KnownBug {
+        id: "denormal-slow",
+        cases: &[],
+        subject_contains: "",
+        detail_contains: "",
+        description: "sahara-geom Ray::is_valid / the kernels: a valid ray with a denormal \
+            direction (1/d overflows to inf in every component) hits at t = +inf (inf-t), so no \
+            hit shortens its interval and it visits ~100x the leaves of the same ray with a \
+            normal direction, in subnormal arithmetic: the bad-ray timing of `cargo xtask \
+            hardcases` measures such batches at 200-370x the valid batch (bound: 2x). Timing \
+            only (no case fails on it); work-count test in tests/known_bugs.rs.",
+    },
+    KnownBug {
         id: "sah-overflow",
         cases: &["coords-1e30", "coords-near-1e30", "coords-1e38"],
         subject_contains: "",
