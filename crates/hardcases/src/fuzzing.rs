@@ -239,8 +239,8 @@ pub fn check_scene_bytes(data: &[u8]) -> Result<(), String> {
     check_scene_bytes_with(data, true)
 }
 
-/// True when a bounds extent exceeds what `Aabb::half_area` can square in `f32` (the scenes
-/// where the known bug `sah-overflow` makes the SAH cost NaN).
+/// True when a bounds extent exceeds what `Aabb::half_area` can square in `f32` (scenes where
+/// the since-fixed `sah-overflow` made the SAH cost NaN; builders still rate splits in f32).
 fn extent_overflows(tris: &[Triangle]) -> bool {
     let mut b = sahara_geom::Aabb::EMPTY;
     for t in tris {

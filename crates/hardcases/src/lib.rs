@@ -289,16 +289,6 @@ pub const KNOWN_BUGS: &[KnownBug] = &[
             hardcases` measures such batches at 200-370x the valid batch (bound: 2x). Timing \
             only (no case fails on it); work-count test in tests/known_bugs.rs.",
     },
-    KnownBug {
-        id: "sah-overflow",
-        cases: &["coords-1e30", "coords-near-1e30", "coords-1e38"],
-        subject_contains: "",
-        detail_contains: "SAH cost is NaN",
-        description: "sahara-metrics sah(): node areas come from Aabb::half_area in f32, which \
-            overflows to +inf once extents exceed ~1.8e19, so the SAH cost of any tree over \
-            coordinates near 1e30 is inf/inf = NaN (the trees are valid and trace correctly). \
-            Fix: compute the areas in f64 from the extents.",
-    },
 ];
 
 /// The [`KnownBug`] explaining a failure, if any.

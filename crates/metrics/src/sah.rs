@@ -14,19 +14,22 @@ pub fn sah(bvh: &Bvh, cost: &CostModel) -> f64 {
     sah_of_subtree(bvh, 0, cost)
 }
 
+/// Half the surface area of a node's box in `f64`: the `f32` product overflows once extents
+/// exceed about 1.8e19, which would make the SAH of scenes with coordinates near 1e30 NaN.
+fn half_area(n: &sahara_bvh::Node) -> f64 {
+    let e: [f64; 3] = std::array::from_fn(|k| (n.max[k] as f64 - n.min[k] as f64).max(0.0));
+    e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+}
+
 /// The SAH cost `c(n)` of the subtree rooted at node `root`, relative to that node's area.
 pub fn sah_of_subtree(bvh: &Bvh, root: usize, cost: &CostModel) -> f64 {
-    let root_area = bvh.nodes[root].bounds().half_area() as f64;
+    let root_area = half_area(&bvh.nodes[root]);
     let mut inner = 0.0f64;
     let mut leaf = 0.0f64;
     let mut stack = vec![root];
     while let Some(i) = stack.pop() {
         let n = &bvh.nodes[i];
-        let a = if root_area > 0.0 {
-            n.bounds().half_area() as f64
-        } else {
-            1.0
-        };
+        let a = if root_area > 0.0 { half_area(n) } else { 1.0 };
         if n.is_leaf() {
             leaf += a * n.count as f64;
         } else {
@@ -70,5 +73,24 @@ mod tests {
         let expect = c.inner_cost(ap, al, c.leaf_cost(2), ar, c.leaf_cost(3));
         assert_relative_eq!(sah(&bvh, &c), expect, epsilon = 1e-9);
         assert_eq!(sah(&Bvh::empty(), &c), 0.0);
+    }
+
+    #[test]
+    fn finite_for_huge_coordinates() {
+        let root = Aabb::new(Vec3A::splat(-1e30), Vec3A::splat(1e30));
+        let l = Aabb::new(Vec3A::splat(-1e30), Vec3A::ZERO);
+        let r = Aabb::new(Vec3A::ZERO, Vec3A::splat(1e30));
+        let bvh = Bvh {
+            nodes: vec![
+                Node::inner(&root, 2),
+                Node::leaf(&l, 0, 1),
+                Node::leaf(&r, 1, 1),
+            ],
+            prim_indices: vec![0, 1],
+            spatial_splits: false,
+        };
+        let c = sah(&bvh, &CostModel::default());
+        assert!(c.is_finite(), "{c}");
+        assert_relative_eq!(c, 1.2 + 0.25 + 0.25, max_relative = 1e-6);
     }
 }
