@@ -14,9 +14,15 @@ pub fn sah(bvh: &Bvh, cost: &CostModel) -> f64 {
     sah_of_subtree(bvh, 0, cost)
 }
 
-/// Half the surface area of a node's box in `f64`: the `f32` product overflows once extents
-/// exceed about 1.8e19, which would make the SAH of scenes with coordinates near 1e30 NaN.
+/// Half the surface area of a node's box: `Aabb::half_area` (the value every builder rates
+/// splits with, so that cost-only builds match this function to the last bit), recomputed in
+/// `f64` when the `f32` product overflows (extents above about 1.8e19), which would otherwise
+/// make the SAH of scenes with coordinates near 1e30 NaN.
 fn half_area(n: &sahara_bvh::Node) -> f64 {
+    let a = n.bounds().half_area();
+    if a.is_finite() {
+        return a as f64;
+    }
     let e: [f64; 3] = std::array::from_fn(|k| (n.max[k] as f64 - n.min[k] as f64).max(0.0));
     e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
 }
