@@ -3,78 +3,11 @@
 use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
 use sahara_build::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_build::{registry, BuildInput, Builder, Bvh};
-use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
-fn rand_point(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3A {
-    Vec3A::new(
-        rng.range_f32(lo, hi),
-        rng.range_f32(lo, hi),
-        rng.range_f32(lo, hi),
-    )
-}
-
-fn soup(n: usize, seed: u64, size: f32) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(seed, 1);
-    (0..n)
-        .map(|_| {
-            let c = rand_point(&mut rng, 0.0, 100.0);
-            let s = rng.range_f32(0.01, size);
-            Triangle::new(
-                c + rand_point(&mut rng, -s, s),
-                c + rand_point(&mut rng, -s, s),
-                c + rand_point(&mut rng, -s, s),
-            )
-        })
-        .collect()
-}
-
-fn clustered(n: usize) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(7, 3);
-    let c = Vec3A::splat(50.0);
-    (0..n)
-        .map(|i| {
-            let s = rng.range_f32(0.1, 50.0);
-            let j = if i % 2 == 0 {
-                Vec3A::ZERO
-            } else {
-                rand_point(&mut rng, -1e-4, 1e-4)
-            };
-            Triangle::new(
-                c + j + Vec3A::new(-s, -s, 0.0),
-                c + j + Vec3A::new(s, 0.0, -s),
-                c + j + Vec3A::new(0.0, s, s),
-            )
-        })
-        .collect()
-}
-
-fn degenerate_mix() -> Vec<Triangle> {
-    let mut tris = soup(200, 11, 20.0);
-    let p = Vec3A::new(3.0, 4.0, 5.0);
-    for i in 0..100 {
-        let o = Vec3A::splat(i as f32 * 0.1);
-        tris.push(Triangle::new(o, o + Vec3A::X * 30.0, o + Vec3A::X * 60.0));
-        tris.push(Triangle::new(o, o, o + Vec3A::new(20.0, 30.0, 40.0)));
-        tris.push(Triangle::new(p, p, p));
-    }
-    let dup = tris[5];
-    tris.extend(std::iter::repeat_n(dup, 40));
-    tris
-}
-
-fn flat_scene(n: usize) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(5, 9);
-    (0..n)
-        .map(|_| {
-            let c = Vec3A::new(rng.range_f32(0.0, 100.0), rng.range_f32(0.0, 100.0), 2.0);
-            let a = Vec3A::new(rng.range_f32(-9.0, 9.0), rng.range_f32(-9.0, 9.0), 0.0);
-            let b = Vec3A::new(rng.range_f32(-9.0, 9.0), rng.range_f32(-9.0, 9.0), 0.0);
-            Triangle::new(c, c + a, c + b)
-        })
-        .collect()
-}
+mod spatial_support;
+use spatial_support::*;
 
 /// A grid of small triangles crossed by long thin diagonal triangles.
 fn needs_spatial() -> Vec<Triangle> {
@@ -142,16 +75,6 @@ fn build_with(tris: &[Triangle], config: TsahSpatialConfig) -> Bvh {
     bvh
 }
 
-fn bits(bvh: &Bvh) -> Vec<u32> {
-    let mut v = Vec::new();
-    for n in &bvh.nodes {
-        v.extend(n.min.iter().chain(&n.max).map(|x| x.to_bits()));
-        v.extend([n.index, n.count]);
-    }
-    v.extend(&bvh.prim_indices);
-    v
-}
-
 #[test]
 fn random_soups_validate() {
     for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (1500, 5)] {
@@ -165,7 +88,7 @@ fn random_soups_validate() {
 fn clustered_degenerate_and_flat_inputs() {
     for config in configs() {
         build_with(&clustered(600), config);
-        build_with(&degenerate_mix(), config);
+        build_with(&degenerate_mix(200, 100, 40), config);
         build_with(&flat_scene(1000), config);
         let p = Vec3A::new(1.0, -2.0, 3.0);
         build_with(&vec![Triangle::new(p, p, p); 300], config);
@@ -180,7 +103,7 @@ fn sah_never_above_sbvh() {
         needs_spatial(),
         soup(1500, 21, 10.0),
         clustered(800),
-        degenerate_mix(),
+        degenerate_mix(200, 100, 40),
     ] {
         for cost in [CostModel::AILA, CostModel::UNIT] {
             let input = BuildInput::new(&tris, cost).unwrap();
