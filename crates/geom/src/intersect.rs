@@ -25,6 +25,8 @@ pub const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 pub struct WatertightRay {
     /// Ray origin.
     pub origin: Vec3A,
+    /// `1 / direction`, component-wise (for the bounds check of [`accept_hit`]).
+    pub inv_direction: Vec3A,
     /// Index of the direction's largest component (the one mapped to z).
     pub kz: usize,
     /// The two other axes, swapped when `direction[kz] < 0` to keep the winding.
@@ -55,6 +57,7 @@ impl WatertightRay {
         let dz = direction[kz];
         Self {
             origin,
+            inv_direction: direction.recip(),
             kz,
             kx,
             ky,
@@ -77,9 +80,15 @@ pub struct TriangleHit {
 
 /// Watertight ray/triangle test. Returns the hit when it lies in `[tmin, tmax]`.
 ///
-/// Both faces are hit (no culling). Degenerate triangles (zero determinant) never hit. When
-/// the ray's constants are not finite (zero, NaN or infinite directions) the result is a miss
-/// or a finite hit, never a NaN distance.
+/// Both faces are hit (no culling). Degenerate triangles (zero determinant, or three
+/// collinear vertices: see [`accept_hit`]) never hit. The result is a miss or a hit at a
+/// finite distance, never a NaN or infinite one, whatever the ray (zero, NaN, infinite or
+/// subnormal directions) and the triangle.
+///
+/// In `f32`, rounding can make the sheared 2-D test accept a ray that passes beside a
+/// zero-area triangle, or (for triangles whose extent dwarfs their distance from the origin,
+/// near `f32::MAX`) return a distance far from the triangle's plane. Such answers fail
+/// [`accept_hit`] and are misses.
 #[inline]
 pub fn intersect_triangle(
     r: &WatertightRay,
@@ -130,7 +139,7 @@ pub fn intersect_triangle(
     }
     let inv = 1.0 / det;
     let t = t_scaled * inv;
-    if !(t >= tmin && t <= tmax) {
+    if !(t >= tmin && t <= tmax && accept_hit(r, tri, tmin, t)) {
         return None;
     }
     Some(TriangleHit {
@@ -138,6 +147,58 @@ pub fn intersect_triangle(
         u: v * inv,
         v: w * inv,
     })
+}
+
+/// The final check of every hit the watertight test computes (the wide kernels apply it to
+/// their SIMD hits too): true when
+///
+/// * `t` is finite (a valid ray whose true hit distance overflows `f32` misses);
+/// * the triangle is not degenerate ([`is_degenerate`]);
+/// * the slab test [`intersect_aabb`] of the triangle's own bounding box admits the interval
+///   `[lower_distance(tmin), cull_distance(t)]`.
+///
+/// The last condition is what makes BVH traversal agree with brute force on every hit: the
+/// slab test's computed distances are monotonic in the box (a larger box never has a later
+/// computed entry or an earlier computed exit), so every box containing the triangle passes
+/// the same test for any interval containing that one, and the kernels cull with exactly
+/// `[lower_distance(tmin), cull_distance(best t)]`. For ordinary triangles it never rejects a
+/// hit (the widening by 2^-16 of the distance dwarfs the rounding of both tests); it rejects
+/// the rounding artefacts of the `f32` test on degenerate and extreme triangles.
+#[inline]
+pub fn accept_hit(r: &WatertightRay, tri: &Triangle, tmin: f32, t: f32) -> bool {
+    if !t.is_finite() || is_degenerate(tri) {
+        return false;
+    }
+    intersect_aabb(
+        r.origin,
+        r.inv_direction,
+        lower_distance(tmin),
+        cull_distance(t),
+        &tri.bounds(),
+    )
+    .is_some()
+}
+
+/// True when the triangle's three vertices are collinear (or coincide): the cross product of
+/// its edges, computed in `f64` from the `f32` vertices (so it neither overflows nor underflows,
+/// unlike `f32` for coordinates near 1e±30), is exactly zero. Such triangles are never hit.
+#[inline]
+pub fn is_degenerate(tri: &Triangle) -> bool {
+    let d = |a: Vec3A, b: Vec3A| {
+        [
+            b.x as f64 - a.x as f64,
+            b.y as f64 - a.y as f64,
+            b.z as f64 - a.z as f64,
+        ]
+    };
+    let e1 = d(tri.v[0], tri.v[1]);
+    let e2 = d(tri.v[0], tri.v[2]);
+    let c = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    c == [0.0; 3]
 }
 
 /// Convenience wrapper: precomputes the ray constants and tests one triangle.
@@ -191,6 +252,15 @@ pub fn intersect_aabb(
 #[inline]
 pub fn cull_distance(t: f32) -> f32 {
     t + t.abs() * (1.0 / 65536.0)
+}
+
+/// The counterpart of [`cull_distance`] for the start of the interval: `t` lowered by 2^-16 of
+/// its magnitude. Box tests use `[lower_distance(tmin), cull_distance(tmax or best t)]`, so that
+/// a triangle hit at exactly `tmin` or `tmax` (a shadow ray ending on a surface) is never lost to
+/// the rounding of a box entry or exit distance.
+#[inline]
+pub fn lower_distance(t: f32) -> f32 {
+    t - t.abs() * (1.0 / 65536.0)
 }
 
 #[cfg(test)]

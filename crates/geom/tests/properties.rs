@@ -4,7 +4,7 @@ use approx::assert_relative_eq;
 use proptest::prelude::*;
 use sahara_geom::{
     clip::{clip_triangle, clipped_area, split_triangle_bounds},
-    intersect::intersect_ray_triangle,
+    intersect::{cull_distance, intersect_aabb, intersect_ray_triangle, lower_distance},
     Aabb, Ray, Triangle, Vec3A,
 };
 
@@ -73,6 +73,50 @@ proptest! {
             let clipped = clip_triangle(&t, &part).bounds();
             if !clipped.is_empty() {
                 prop_assert!(Aabb::new(half.min - pad, half.max + pad).contains_aabb(&clipped));
+            }
+        }
+    }
+
+    /// The invariant BVH traversal rests on: every box containing a triangle passes the slab
+    /// test over `[lower_distance(tmin), cull_distance(t)]` for every hit `t` the triangle
+    /// test reports, whatever the triangle (including slivers, flat and near-degenerate ones,
+    /// made by snapping coordinates to one plane or line) and the ray.
+    #[test]
+    fn boxes_around_a_hit_triangle_are_never_culled(
+        t in tri(),
+        flatten in 0usize..5,
+        o in v3(),
+        target in (0.0f32..1.0, 0.0f32..1.0),
+        tmin in prop_oneof![Just(0.0f32), -1.0f32..1.0],
+        end_on_hit in any::<bool>(),
+        grow in (0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0),
+    ) {
+        let mut t = t;
+        let v0 = t.v[0];
+        match flatten {
+            // Axis-aligned triangle: a flat box.
+            1 => for v in &mut t.v { v.x = v0.x; },
+            // Two coordinates shared: a segment along z (zero area).
+            2 => for v in &mut t.v { v.x = v0.x; v.y = v0.y; },
+            // A sliver: the third vertex next to the first edge's midpoint.
+            3 => t.v[2] = (t.v[0] + t.v[1]) * 0.5 + Vec3A::splat(1e-6),
+            _ => {}
+        }
+        let (a, b) = target;
+        let p = t.v[0] + (t.v[1] - t.v[0]) * a * (1.0 - b) + (t.v[2] - t.v[0]) * b * (1.0 - a);
+        let d = p - o;
+        let tmax = if end_on_hit { 1.0 } else { f32::INFINITY };
+        let ray = Ray::new(o, d, tmin, tmax);
+        if let Some(h) = intersect_ray_triangle(&ray, &t) {
+            prop_assert!(h.t.is_finite());
+            let tb = t.bounds();
+            let g = Vec3A::new(grow.0, grow.1, grow.2);
+            for bx in [tb, Aabb::new(tb.min - g, tb.max), Aabb::new(tb.min, tb.max + g)] {
+                prop_assert!(
+                    intersect_aabb(o, ray.inv_direction, lower_distance(tmin), cull_distance(h.t), &bx)
+                        .is_some(),
+                    "hit at t = {} culled by {:?}", h.t, bx
+                );
             }
         }
     }

@@ -238,57 +238,9 @@ pub struct KnownBug {
 /// accept exactly these (each also has a minimal `#[ignore]`d test in
 /// `crates/hardcases/tests/known_bugs.rs` that fails until the owner fixes it).
 pub const KNOWN_BUGS: &[KnownBug] = &[
-    KnownBug {
-        id: "false-hit",
-        cases: &["bad-geometry/collinear"],
-        subject_contains: "/",
-        detail_contains: "differ",
-        description: "sahara-geom intersect_triangle (and the wide kernels' lane-by-lane copy) \
-            reports hits far outside the triangle: on exactly zero-area triangles (three vertices \
-            on one axis-parallel line; rounding in the shear makes the projected determinant \
-            non-zero; hit 3e-4 off the segment) and on triangles with coordinates near f32::MAX \
-            (the edge-function products overflow; hit at t = -0 at the ray origin, 2 units from \
-            the triangle's plane). BVH kernels cull the triangle's bounds, so they disagree with \
-            brute force. Documented as 'degenerate triangles never hit'.",
-    },
-    KnownBug {
-        id: "slab-rounding",
-        cases: &["bad-rays/tmax-on-surface", "bad-geometry/flat-x"],
-        subject_contains: "/",
-        detail_contains: "differ",
-        description: "sahara-geom intersect_aabb (and the wide kernels' copy) is not conservative \
-            at the ends of the ray interval: only the far slab distances are scaled by \
-            1 + 2 gamma(3), and the entry distance, rounded up, is compared unscaled with the ray's \
-            tmax and with the current closest hit (a far distance of exactly 0 stays 0). So a \
-            flat leaf box is culled although the watertight test hits its triangle at t <= tmax \
-            (tmax = 1: box entry 1.0000001, triangle t = 0.99999994: shadow rays ending on a \
-            surface), a hit at t = 0 on a box touching the origin is lost, and an exact tie at the \
-            current hit distance in another leaf can be skipped (lowest-index rule broken). The \
-            gamma bound also fails for subnormal reciprocal directions (direction components \
-            near f32::MAX).",
-    },
-    KnownBug {
-        id: "inf-t",
-        cases: &["bad-rays/"],
-        subject_contains: "brute",
-        detail_contains: "non-finite distance",
-        description: "sahara-geom intersect_triangle returns hits at t = +inf for valid rays with \
-            denormal directions (|d| ~ 1e-40) and tmax = +inf (the true distance overflows f32), \
-            although it documents 'a miss or a finite hit'; every kernel returns the same hit \
-            (t = inf with a primitive index), so geom and the wide kernels must change together.",
-    },
-    KnownBug {
-        id: "denormal-slow",
-        cases: &[],
-        subject_contains: "",
-        detail_contains: "",
-        description: "sahara-geom Ray::is_valid / the kernels: a valid ray with a denormal \
-            direction (1/d overflows to inf in every component) hits at t = +inf (inf-t), so no \
-            hit shortens its interval and it visits ~100x the leaves of the same ray with a \
-            normal direction, in subnormal arithmetic: the bad-ray timing of `cargo xtask \
-            hardcases` measures such batches at 200-370x the valid batch (bound: 2x). Timing \
-            only (no case fails on it); work-count test in tests/known_bugs.rs.",
-    },
+    // Empty: the four bugs found so far were fixed in sahara-geom and the kernels on
+    // 2026-11-25 (`false-hit`, `slab-rounding`, `inf-t`, `denormal-slow`; their minimal tests
+    // stay in tests/known_bugs.rs as regression tests, see docs/hardcases.md).
 ];
 
 /// The [`KnownBug`] explaining a failure, if any.

@@ -94,7 +94,7 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
                 .collect(),
         ),
         (
-            "direction denormal (valid)",
+            "direction denormal (invalid: a miss)",
             map(&|r| Ray::new(r.origin, r.direction * 1e-40, r.tmin, r.tmax)),
         ),
         (

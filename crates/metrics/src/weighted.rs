@@ -22,7 +22,7 @@ use crate::{endpoint_overlap, epo::CHUNK, CostModel, Endpoint};
 use rayon::prelude::*;
 use sahara_bvh::Bvh;
 use sahara_geom::{
-    intersect::{intersect_aabb, intersect_triangle},
+    intersect::{cull_distance, intersect_aabb, intersect_triangle, lower_distance},
     Aabb, Ray, Triangle, Vec3A,
 };
 use serde::{Deserialize, Serialize};
@@ -149,9 +149,8 @@ pub fn closest_hits(bvh: &Bvh, tris: &[Triangle], rays: &[Ray]) -> Vec<Option<Hi
                 stack.push(0usize);
                 while let Some(i) = stack.pop() {
                     let node = &bvh.nodes[i];
-                    if intersect_aabb(r.origin, r.inv_direction, r.tmin, tmax, &node.bounds())
-                        .is_none()
-                    {
+                    let (lo, hi) = (lower_distance(r.tmin), cull_distance(tmax));
+                    if intersect_aabb(r.origin, r.inv_direction, lo, hi, &node.bounds()).is_none() {
                         continue;
                     }
                     if node.is_leaf() {

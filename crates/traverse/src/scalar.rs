@@ -3,12 +3,16 @@
 use crate::{Hit, NodeStack, TraversalStats};
 use sahara_bvh::Bvh;
 use sahara_geom::{
-    intersect::{cull_distance, intersect_aabb, intersect_triangle},
+    intersect::{cull_distance, intersect_aabb, intersect_triangle, lower_distance},
     Ray, Triangle,
 };
 
 /// Closest hit: depth-first, nearer child first, children culled against the current hit.
 /// Invalid rays ([`Ray::is_valid`]) miss.
+///
+/// Boxes are tested against `[lower_distance(tmin), cull_distance(min(best t, tmax))]`, the
+/// interval for which [`sahara_geom::intersect::accept_hit`] guarantees that every box
+/// containing a hit triangle passes: the result is the brute-force result ([`crate::brute`]).
 pub fn closest_hit<S: TraversalStats>(
     bvh: &Bvh,
     tris: &[Triangle],
@@ -20,9 +24,18 @@ pub fn closest_hit<S: TraversalStats>(
         return best;
     }
     let (o, inv) = (ray.origin, ray.inv_direction);
+    let box_tmin = lower_distance(ray.tmin);
     let w = ray.watertight();
     let nodes = &bvh.nodes;
-    if intersect_aabb(o, inv, ray.tmin, ray.tmax, &nodes[0].bounds()).is_none() {
+    if intersect_aabb(
+        o,
+        inv,
+        box_tmin,
+        cull_distance(ray.tmax),
+        &nodes[0].bounds(),
+    )
+    .is_none()
+    {
         return best;
     }
     let mut stack = NodeStack::new();
@@ -33,8 +46,10 @@ pub fn closest_hit<S: TraversalStats>(
             stats.leaf();
             stats.triangles(node.count);
             for &p in bvh.leaf_prims(node) {
-                let limit = cull_distance(best.t).min(ray.tmax);
-                if let Some(h) = intersect_triangle(&w, &tris[p as usize], ray.tmin, limit) {
+                // The ray's own interval, not the current hit: the test's pre-check of the
+                // distance (before the division) is not monotonic in `tmax` near ties, so a
+                // tighter bound could drop a triangle at exactly the current distance.
+                if let Some(h) = intersect_triangle(&w, &tris[p as usize], ray.tmin, ray.tmax) {
                     if best.is_improved_by(h.t, p) {
                         best = Hit {
                             t: h.t,
@@ -48,9 +63,9 @@ pub fn closest_hit<S: TraversalStats>(
         } else {
             stats.inner();
             let (l, r) = (cur + 1, node.index as usize);
-            let tmax = cull_distance(best.t).min(ray.tmax);
-            let hl = intersect_aabb(o, inv, ray.tmin, tmax, &nodes[l].bounds());
-            let hr = intersect_aabb(o, inv, ray.tmin, tmax, &nodes[r].bounds());
+            let tmax = cull_distance(best.t.min(ray.tmax));
+            let hl = intersect_aabb(o, inv, box_tmin, tmax, &nodes[l].bounds());
+            let hr = intersect_aabb(o, inv, box_tmin, tmax, &nodes[r].bounds());
             match (hl, hr) {
                 (Some(tl), Some(tr)) => {
                     let (near, far) = if tr < tl { (r, l) } else { (l, r) };
@@ -75,8 +90,8 @@ pub fn closest_hit<S: TraversalStats>(
                 None => return best,
                 Some(n) => {
                     let n = n as usize;
-                    let tmax = cull_distance(best.t).min(ray.tmax);
-                    if intersect_aabb(o, inv, ray.tmin, tmax, &nodes[n].bounds()).is_some() {
+                    let tmax = cull_distance(best.t.min(ray.tmax));
+                    if intersect_aabb(o, inv, box_tmin, tmax, &nodes[n].bounds()).is_some() {
                         cur = n;
                         break;
                     }
@@ -92,12 +107,13 @@ pub fn any_hit<S: TraversalStats>(bvh: &Bvh, tris: &[Triangle], ray: &Ray, stats
         return false;
     }
     let (o, inv) = (ray.origin, ray.inv_direction);
+    let (box_tmin, box_tmax) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
     let w = ray.watertight();
     let mut stack = NodeStack::new();
     stack.push(0);
     while let Some(i) = stack.pop() {
         let node = &bvh.nodes[i as usize];
-        if intersect_aabb(o, inv, ray.tmin, ray.tmax, &node.bounds()).is_none() {
+        if intersect_aabb(o, inv, box_tmin, box_tmax, &node.bounds()).is_none() {
             continue;
         }
         if node.is_leaf() {

@@ -3,7 +3,9 @@
 
 use super::{decode_leaf, TriPacket, WideBvh, WideNode, LEAF_BIT, NO_ROOT};
 use crate::{Hit, TraversalStats};
-use sahara_geom::intersect::{gamma, intersect_triangle, WatertightRay, ROBUST_FAR_SCALE};
+use sahara_geom::intersect::{
+    accept_hit, gamma, intersect_triangle, lower_distance, WatertightRay, ROBUST_FAR_SCALE,
+};
 use sahara_geom::Ray;
 use std::mem::MaybeUninit;
 
@@ -54,11 +56,12 @@ impl RayData {
             inv,
             tmin: ray.tmin,
             tmax: ray.tmax,
-            box_tmin: ray.tmin - ray.tmin.abs() * (1.0 / 65536.0),
+            box_tmin: lower_distance(ray.tmin),
             near_row,
             far_row,
             w: WatertightRay {
                 origin: ray.origin,
+                inv_direction: ray.inv_direction,
                 kz: 2,
                 kx: 0,
                 ky: 1,
@@ -118,6 +121,11 @@ pub(crate) trait Kernel<const W: usize> {
     /// The ray in the backend's registers.
     type Ray: Copy;
 
+    /// True when the packet tests already apply [`accept_hit`] to their hits (the portable
+    /// backend, which calls [`intersect_triangle`]); the SIMD backends leave it to the
+    /// traversal loop, which runs it on the few hit lanes only.
+    const ACCEPTS_HITS: bool;
+
     /// Prepares the ray.
     ///
     /// # Safety
@@ -139,9 +147,11 @@ pub(crate) trait Kernel<const W: usize> {
     ) -> u32;
 
     /// Tests a packet against `[tmin, tmax]` of the ray, returning `(hit mask, fallback mask)`:
-    /// lanes of the hit mask are hits with exactly the values of
+    /// lanes of the hit mask are hits with exactly the values of the `f32` part of
     /// [`intersect_triangle`] (written to `out` when the mask is not zero, with `t <= tfar`
-    /// also required); lanes of the fallback mask must be tested with [`intersect_triangle`].
+    /// also required) that still have to pass [`accept_hit`] unless
+    /// [`ACCEPTS_HITS`](Kernel::ACCEPTS_HITS); lanes of the fallback mask must be tested with
+    /// [`intersect_triangle`].
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
@@ -153,11 +163,17 @@ pub(crate) trait Kernel<const W: usize> {
         out: &mut PacketHits,
     ) -> (u32, u32);
 
-    /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`.
+    /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`; the hit
+    /// distances are written to `t` when the hit mask is not zero.
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
-    unsafe fn occlude_packet(p: &TriPacket, r: &Self::Ray, rd: &RayData) -> (u32, u32);
+    unsafe fn occlude_packet(
+        p: &TriPacket,
+        r: &Self::Ray,
+        rd: &RayData,
+        t: &mut [f32; 4],
+    ) -> (u32, u32);
 }
 
 /// A traversal stack entry: a child reference and its entry distance.
@@ -314,7 +330,9 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
             let l = hits.trailing_zeros() as usize & 3;
             hits &= hits - 1;
             let prim = p.prims[l];
-            if best.is_improved_by(out.t[l], prim) {
+            if best.is_improved_by(out.t[l], prim)
+                && (K::ACCEPTS_HITS || accept_lane(p, l, rd, out.t[l]))
+            {
                 *best = Hit {
                     t: out.t[l],
                     prim,
@@ -330,6 +348,12 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
         }
         *tfar = widen(best.t.min(rd.tmax));
     }
+}
+
+/// [`accept_hit`] for lane `l` of a packet hit at `t`.
+#[inline(never)]
+fn accept_lane(p: &TriPacket, l: usize, rd: &RayData, t: f32) -> bool {
+    accept_hit(&rd.w, &p.triangle(l), rd.tmin, t)
 }
 
 /// The exact scalar test of one lane (for lanes with an edge function exactly zero).
@@ -491,6 +515,7 @@ pub(crate) unsafe fn any_hit<
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
     let mut dist = [0.0f32; W];
+    let mut ts = [0.0f32; 4];
     let mut cur = bvh.root;
     loop {
         if cur & LEAF_BIT != 0 {
@@ -502,9 +527,13 @@ pub(crate) unsafe fn any_hit<
             for p in packets {
                 stats.triangles(p.len());
                 // SAFETY: forwarded.
-                let (hits, mut fallback) = unsafe { K::occlude_packet(p, &kr, &rd) };
-                if hits != 0 {
-                    return true;
+                let (mut hits, mut fallback) = unsafe { K::occlude_packet(p, &kr, &rd, &mut ts) };
+                while hits != 0 {
+                    let l = hits.trailing_zeros() as usize & 3;
+                    hits &= hits - 1;
+                    if K::ACCEPTS_HITS || accept_lane(p, l, &rd, ts[l]) {
+                        return true;
+                    }
                 }
                 while fallback != 0 {
                     let l = fallback.trailing_zeros() as usize & 3;

@@ -34,23 +34,24 @@
 //!   where an edge function is exactly zero (the case where the reference falls back to `f64`)
 //!   to [`intersect_triangle`] itself. So `t`, `u`, `v` and the primitive are those of the
 //!   reference kernel [`crate::scalar::closest_hit`];
-//! * candidate triangles are accepted against the ray's own `[tmin, tmax]` and then compared
-//!   with [`Hit::is_improved_by`], so the result does not depend on the order in which leaves
-//!   are visited (equal distances: lowest primitive index): it is the brute-force result
-//!   ([`crate::brute`]);
-//! * culling uses the current hit distance widened by 2^-16 of itself, so that a box whose
-//!   computed entry distance rounds just past a tying triangle is still visited, and rays
-//!   with `tmin < 0` also make negative far distances conservative (`× (1 - 2γ(3))`).
+//! * candidate triangles are accepted against the ray's own `[tmin, tmax]`, must pass
+//!   [`accept_hit`] (applied by the traversal loop to the SIMD lanes that hit), and are then
+//!   compared with [`Hit::is_improved_by`], so the result does not depend on the order in which
+//!   leaves are visited (equal distances: lowest primitive index);
+//! * boxes are tested against `[lower_distance(tmin), cull_distance(min(best t, tmax))]` (the
+//!   interval widened by 2^-16 of itself at both ends), and rays with `tmin < 0` also make
+//!   negative far distances conservative (`× (1 - 2γ(3))`). Because [`accept_hit`] only admits
+//!   a hit whose triangle's own bounds pass that same slab test, and the computed slab
+//!   distances are monotonic in the box, no box containing a hit triangle is ever culled.
 //!
-//! The scalar reference differs from brute force in three corner cases (documented in the
-//! crate README: rays in the minimum plane of a box, order-dependent ties under its triangle
-//! pre-test, flat boxes behind the origin when `tmin < 0`); there the wide kernels return the
-//! brute-force result. Everywhere else all kernels agree bit for bit.
+//! So every kernel, the scalar reference included, returns the brute-force result
+//! ([`crate::brute`]) bit for bit.
 //!
 //! Invalid rays ([`Ray::is_valid`]) miss.
 //!
 //! [`intersect_aabb`]: sahara_geom::intersect::intersect_aabb
 //! [`intersect_triangle`]: sahara_geom::intersect::intersect_triangle
+//! [`accept_hit`]: sahara_geom::intersect::accept_hit
 //! [`ROBUST_FAR_SCALE`]: sahara_geom::intersect::ROBUST_FAR_SCALE
 //!
 //! ```

@@ -11,6 +11,7 @@ pub(crate) struct Portable;
 
 impl<const W: usize> Kernel<W> for Portable {
     type Ray = ();
+    const ACCEPTS_HITS: bool = true;
 
     #[inline(always)]
     unsafe fn prepare(_: &RayData) {}
@@ -61,7 +62,7 @@ impl<const W: usize> Kernel<W> for Portable {
     }
 
     #[inline(always)]
-    unsafe fn occlude_packet(p: &TriPacket, _: &(), rd: &RayData) -> (u32, u32) {
+    unsafe fn occlude_packet(p: &TriPacket, _: &(), rd: &RayData, _: &mut [f32; 4]) -> (u32, u32) {
         let mut mask = 0;
         for l in 0..4 {
             if p.prims[l] != u32::MAX

@@ -201,16 +201,20 @@ unsafe fn packet_closest(p: &TriPacket, r: &SseRay, tfar: f32, out: &mut PacketH
 }
 
 #[inline(always)]
-unsafe fn packet_occluded(p: &TriPacket, r: &SseRay) -> (u32, u32) {
-    // SAFETY (whole function): SSE2 is part of x86-64.
+unsafe fn packet_occluded(p: &TriPacket, r: &SseRay, t_out: &mut [f32; 4]) -> (u32, u32) {
+    // SAFETY (whole function): SSE2 is part of x86-64; `t_out` holds 4 floats.
     unsafe {
         let [_, _, _, t_scaled, det, ok, is_zero] = tri4(p, r);
         let fallback = _mm_movemask_ps(is_zero) as u32;
         if _mm_movemask_ps(ok) as u32 & !fallback == 0 {
             return (0, fallback);
         }
-        let [ok, _, _] = tri4_range(r, t_scaled, det, ok);
-        (_mm_movemask_ps(_mm_andnot_ps(is_zero, ok)) as u32, fallback)
+        let [ok, t, _] = tri4_range(r, t_scaled, det, ok);
+        let hits = _mm_movemask_ps(_mm_andnot_ps(is_zero, ok)) as u32;
+        if hits != 0 {
+            _mm_storeu_ps(t_out.as_mut_ptr(), t);
+        }
+        (hits, fallback)
     }
 }
 
@@ -219,6 +223,7 @@ pub(crate) struct Sse;
 
 impl<const W: usize> Kernel<W> for Sse {
     type Ray = SseRay;
+    const ACCEPTS_HITS: bool = false;
 
     #[inline(always)]
     unsafe fn prepare(rd: &RayData) -> SseRay {
@@ -260,9 +265,14 @@ impl<const W: usize> Kernel<W> for Sse {
     }
 
     #[inline(always)]
-    unsafe fn occlude_packet(p: &TriPacket, r: &SseRay, _: &RayData) -> (u32, u32) {
+    unsafe fn occlude_packet(
+        p: &TriPacket,
+        r: &SseRay,
+        _: &RayData,
+        t: &mut [f32; 4],
+    ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded(p, r) }
+        unsafe { packet_occluded(p, r, t) }
     }
 }
 
@@ -272,6 +282,7 @@ pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
     type Ray = SseRay;
+    const ACCEPTS_HITS: bool = false;
 
     #[inline(always)]
     unsafe fn prepare(rd: &RayData) -> SseRay {
@@ -336,9 +347,14 @@ impl<const W: usize> Kernel<W> for Avx2 {
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn occlude_packet(p: &TriPacket, r: &SseRay, _: &RayData) -> (u32, u32) {
+    unsafe fn occlude_packet(
+        p: &TriPacket,
+        r: &SseRay,
+        _: &RayData,
+        t: &mut [f32; 4],
+    ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded(p, r) }
+        unsafe { packet_occluded(p, r, t) }
     }
 }
 
