@@ -28,6 +28,10 @@ pub struct Args {
     /// Also write the tree to this file (sahara BVH format).
     #[arg(long)]
     save: Option<std::path::PathBuf>,
+    /// Build even when the scene is larger than the builder's practical limit (the registry's
+    /// `max_practical_triangles`, e.g. `tsah-exhaustive`: hours on a 66k-triangle scene).
+    #[arg(long)]
+    force: bool,
 }
 
 /// The JSON record of one build (DESIGN.md's contract).
@@ -91,6 +95,19 @@ pub fn build_and_measure(
 
 pub fn run(a: Args) -> Result<()> {
     let scene = util::load_scene(&a.scene)?;
+    let limit = sahara_build::registry::entries()
+        .into_iter()
+        .find(|e| e.name == a.builder)
+        .and_then(|e| e.max_practical_triangles);
+    if let Some(limit) = limit.filter(|&m| scene.triangles.len() > m && !a.force) {
+        anyhow::bail!(
+            "{} is practical up to {limit} triangles and {} has {}: the build would take far too \
+             long (see `cargo xtask builders`); pass --force to build anyway",
+            a.builder,
+            scene.name,
+            scene.triangles.len()
+        );
+    }
     let (r, bvh) = build_and_measure(
         &scene.name,
         &scene.triangles,

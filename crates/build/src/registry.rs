@@ -15,7 +15,8 @@ pub struct Entry {
     /// True when the preset is only practical for small inputs (an exhaustive reference).
     pub small_inputs_only: bool,
     /// Above this many triangles the preset takes many minutes on two cores: the evaluation
-    /// skips it there unless it is asked for by name (`None`: no limit).
+    /// and `cargo xtask scaling` skip it there unless it is asked for by name, and `cargo xtask
+    /// bvh` refuses without `--force` (`None`: no limit).
     pub max_practical_triangles: Option<usize>,
     /// Creates the builder.
     pub make: fn() -> Box<dyn Builder>,
