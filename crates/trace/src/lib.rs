@@ -80,7 +80,9 @@ pub use rays::{
     cosine_hemisphere, offset_epsilon, ray_rng, scene_bounds, ParseRayKindError, RayKind, RaySet,
     AO_DISTANCE_FRACTION, OFFSET_SCALE,
 };
-pub use render::{colour_ramp, heat_map, shade, HeatMap, RgbImage, Shading, MISS_COLOUR};
+pub use render::{
+    colour_ramp, heat_map, shade, HeatMap, PixelWork, RgbImage, Shading, MISS_COLOUR,
+};
 pub use sahara_traverse::{Hit, WorkCounters};
 pub use timing::{measure, mrays_per_s, Throughput, Timing};
 pub use tracer::{BruteTracer, Bvh2Tracer, Tracer, WideTracer};

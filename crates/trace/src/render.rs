@@ -183,6 +183,9 @@ pub struct HeatMap {
 /// `pixel[i]` and `work[i]` describe ray `i` (as in a [`crate::RaySet`] and its
 /// [`crate::trace_closest_counted`] work); extra elements of the longer slice and pixel indices
 /// outside the image are ignored.
+///
+/// To compare several trees on one colour scale, build the [`PixelWork`] of each, take the
+/// largest [`PixelWork::percentile`] and call [`PixelWork::heat_map`] with it.
 pub fn heat_map(
     width: u32,
     height: u32,
@@ -190,38 +193,83 @@ pub fn heat_map(
     work: &[WorkCounters],
     percentile: f64,
 ) -> HeatMap {
-    let n = width as usize * height as usize;
-    let mut per_pixel: Vec<Option<u64>> = vec![None; n];
-    for (&p, w) in pixel.iter().zip(work) {
-        if let Some(slot) = per_pixel.get_mut(p as usize) {
-            *slot = Some(slot.unwrap_or(0) + work_total(w));
+    let pw = PixelWork::new(width, height, pixel, work);
+    let scale = pw.percentile(percentile);
+    pw.heat_map(scale, percentile)
+}
+
+/// Work summed per pixel (`None` for pixels without a ray): the data of a heat map before a
+/// colour scale is chosen.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PixelWork {
+    width: u32,
+    height: u32,
+    per_pixel: Vec<Option<u64>>,
+}
+
+impl PixelWork {
+    /// Sums `work_total(work[i])` into `pixel[i]` (see [`heat_map`] for the conventions).
+    pub fn new(width: u32, height: u32, pixel: &[u32], work: &[WorkCounters]) -> Self {
+        let n = width as usize * height as usize;
+        let mut per_pixel: Vec<Option<u64>> = vec![None; n];
+        for (&p, w) in pixel.iter().zip(work) {
+            if let Some(slot) = per_pixel.get_mut(p as usize) {
+                *slot = Some(slot.unwrap_or(0) + work_total(w));
+            }
+        }
+        Self {
+            width,
+            height,
+            per_pixel,
         }
     }
-    let mut values: Vec<u64> = per_pixel.iter().flatten().copied().collect();
-    values.sort_unstable();
-    let max = values.last().copied().unwrap_or(0);
-    let pct = if percentile.is_nan() {
-        100.0
-    } else {
-        percentile.clamp(0.0, 100.0)
-    };
-    let scale_max = if values.is_empty() {
-        1.0
-    } else {
+
+    /// The largest work of any pixel (0 without rays).
+    pub fn max(&self) -> u64 {
+        self.per_pixel.iter().flatten().copied().max().unwrap_or(0)
+    }
+
+    /// The `percentile`-th percentile (nearest rank, clamped to `[0, 100]`, NaN as 100) of the
+    /// work of pixels with a ray; at least 1.
+    pub fn percentile(&self, percentile: f64) -> f64 {
+        let mut values: Vec<u64> = self.per_pixel.iter().flatten().copied().collect();
+        if values.is_empty() {
+            return 1.0;
+        }
+        values.sort_unstable();
+        let pct = clamp_percentile(percentile);
         let rank = ((pct / 100.0) * values.len() as f64).ceil() as usize;
         (values[rank.clamp(1, values.len()) - 1] as f64).max(1.0)
-    };
-    let mut image = RgbImage::new(width, height);
-    for (i, v) in per_pixel.iter().enumerate() {
-        if let Some(v) = v {
-            image.set(i, colour_ramp((*v as f64 / scale_max) as f32));
+    }
+
+    /// The heat map with `scale_max` (at least 1) at the top of the ramp; `percentile` is only
+    /// recorded in the result (the percentile the scale was taken at).
+    pub fn heat_map(&self, scale_max: f64, percentile: f64) -> HeatMap {
+        let scale_max = if scale_max.is_finite() {
+            scale_max.max(1.0)
+        } else {
+            1.0
+        };
+        let mut image = RgbImage::new(self.width, self.height);
+        for (i, v) in self.per_pixel.iter().enumerate() {
+            if let Some(v) = v {
+                image.set(i, colour_ramp((*v as f64 / scale_max) as f32));
+            }
+        }
+        HeatMap {
+            image,
+            scale_max,
+            max: self.max(),
+            percentile: clamp_percentile(percentile),
         }
     }
-    HeatMap {
-        image,
-        scale_max,
-        max,
-        percentile: pct,
+}
+
+fn clamp_percentile(p: f64) -> f64 {
+    if p.is_nan() {
+        100.0
+    } else {
+        p.clamp(0.0, 100.0)
     }
 }
 
@@ -294,5 +342,26 @@ mod tests {
         assert_eq!(img.get(1), Some(MISS_COLOUR));
         assert_eq!(img.get(2), Some([0, 0, 0]));
         assert_eq!(img.get(3), None);
+    }
+
+    #[test]
+    fn shared_scale_makes_heat_maps_comparable() {
+        let pixel = [0u32, 1, 1];
+        let light = [WorkCounters::default(); 3];
+        let mut heavy = [WorkCounters::default(); 3];
+        for w in &mut heavy {
+            w.inner = 10;
+        }
+        let a = PixelWork::new(2, 1, &pixel, &light);
+        let b = PixelWork::new(2, 1, &pixel, &heavy);
+        assert_eq!(b.max(), 20);
+        let scale = a.percentile(100.0).max(b.percentile(100.0));
+        assert_eq!(scale, 20.0);
+        let (ha, hb) = (a.heat_map(scale, 100.0), b.heat_map(scale, 100.0));
+        // The same work gets the same colour in both images; more work is brighter.
+        assert_eq!(hb.image.get(1), Some(colour_ramp(1.0)));
+        assert_eq!(hb.image.get(0), Some(colour_ramp(0.5)));
+        assert_eq!(ha.image.get(0), Some(colour_ramp(0.0)));
+        assert_eq!(ha.scale_max, hb.scale_max);
     }
 }

@@ -98,6 +98,9 @@ pub struct SceneInfo {
     pub triangles: usize,
     pub render: Option<String>,
     pub heat_maps: Vec<(String, String)>,
+    /// The work per pixel at the top of every heat map's colour scale (shared by the scene's
+    /// trees).
+    pub heat_scale: f64,
 }
 
 /// A trace measurement with its comparisons.
@@ -359,6 +362,7 @@ pub fn run(a: Args) -> Result<()> {
             triangles: scene.triangles.len(),
             render: None,
             heat_maps: Vec::new(),
+            heat_scale: 1.0,
         };
         let samples: Vec<(String, Vec<sahara_geom::Ray>)> = sets
             .iter()
@@ -372,6 +376,8 @@ pub fn run(a: Args) -> Result<()> {
             })
             .collect();
         let first_row = traces.len();
+        // Per-pixel primary-ray work of each tree, for heat maps on one colour scale.
+        let mut heat: Vec<(String, sahara_trace::PixelWork)> = Vec::new();
         for layout in &s.layouts {
             let tracers: Vec<Box<dyn sahara_trace::Tracer + '_>> = trees
                 .iter()
@@ -401,7 +407,16 @@ pub fn run(a: Args) -> Result<()> {
                         &counted,
                     );
                     if layout == "bvh2" && set.kind == RayKind::Primary {
-                        write_images(&out, &scene, b, set, &counted, &mut info)?;
+                        write_render(&out, &scene, set, &counted, &mut info)?;
+                        heat.push((
+                            b.clone(),
+                            sahara_trace::PixelWork::new(
+                                set.width,
+                                set.height,
+                                &set.pixel,
+                                &counted.work,
+                            ),
+                        ));
                     }
                     let cm = s.cost_model;
                     traces.push(TraceRow {
@@ -417,6 +432,7 @@ pub fn run(a: Args) -> Result<()> {
                 }
             }
         }
+        write_heat_maps(&out, &scene.name, &heat, &mut info)?;
         relate(&mut traces[first_row..]);
         trees_for_predictors.push(predict::SceneTrees {
             scene,
@@ -511,35 +527,58 @@ fn interleaved_timings(
         .collect()
 }
 
-/// The render (once per scene) and the builder's heat map of primary-ray work.
-fn write_images(
+/// The percentile of per-pixel work that the heat maps' colour scale tops out at.
+pub const HEAT_PERCENTILE: f64 = 99.0;
+
+/// The scene's shaded render (once per scene, from the first tree's primary hits).
+fn write_render(
     out: &Path,
     scene: &util::LoadedScene,
-    builder: &str,
     set: &RaySet,
     counted: &sahara_trace::CountedTrace<sahara_trace::TraceResults>,
     info: &mut SceneInfo,
 ) -> Result<()> {
-    let path = format!("images/{}-{}-heat.png", file_stem(&scene.name), builder);
-    let heat = sahara_trace::heat_map(set.width, set.height, &set.pixel, &counted.work, 99.0);
-    heat.image.write_png(out.join(&path))?;
-    info.heat_maps.push((builder.to_string(), path));
-    if info.render.is_none() {
-        if let sahara_trace::TraceResults::Closest(hits) = &counted.results {
-            let path = format!("images/{}-render.png", file_stem(&scene.name));
-            sahara_trace::shade(
-                set.width,
-                set.height,
-                &set.pixel,
-                &set.rays,
-                hits,
-                &scene.triangles,
-                sahara_trace::Shading::Grey,
-            )
-            .write_png(out.join(&path))?;
-            info.render = Some(path);
-        }
+    if info.render.is_some() {
+        return Ok(());
     }
+    if let sahara_trace::TraceResults::Closest(hits) = &counted.results {
+        let path = format!("images/{}-render.png", file_stem(&scene.name));
+        sahara_trace::shade(
+            set.width,
+            set.height,
+            &set.pixel,
+            &set.rays,
+            hits,
+            &scene.triangles,
+            sahara_trace::Shading::Grey,
+        )
+        .write_png(out.join(&path))?;
+        info.render = Some(path);
+    }
+    Ok(())
+}
+
+/// Heat maps of primary-ray work, one per tree, all on one colour scale: the largest of the
+/// trees' [`HEAT_PERCENTILE`]-th percentiles of per-pixel work, so that a colour means the same
+/// work in every image of the scene (recorded in `info.heat_scale`).
+fn write_heat_maps(
+    out: &Path,
+    scene: &str,
+    heat: &[(String, sahara_trace::PixelWork)],
+    info: &mut SceneInfo,
+) -> Result<()> {
+    let scale = heat
+        .iter()
+        .map(|(_, w)| w.percentile(HEAT_PERCENTILE))
+        .fold(1.0, f64::max);
+    for (builder, work) in heat {
+        let path = format!("images/{}-{}-heat.png", file_stem(scene), builder);
+        work.heat_map(scale, HEAT_PERCENTILE)
+            .image
+            .write_png(out.join(&path))?;
+        info.heat_maps.push((builder.clone(), path));
+    }
+    info.heat_scale = scale;
     Ok(())
 }
 

@@ -635,9 +635,13 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
 
     // Images.
     d.h(2, "Renders and work heat maps (primary rays)");
-    d.p("Heat maps show inner nodes + leaves + triangles visited per pixel, normalised to the 99th percentile of each image.");
+    d.p(format!(
+        "Heat maps show inner nodes + leaves + triangles visited per pixel (bvh2 layout). All heat maps of a scene share one colour scale (viridis, dark = little work), topping out at the largest of the trees' {:.0}th percentiles of per-pixel work, so the same colour means the same work in every image of the scene.",
+        super::HEAT_PERCENTILE
+    ));
     for sc in &r.scenes {
         d.h(3, sc.name.clone());
+        d.p(format!("Top of the colour scale: {:.0} work units per pixel.", sc.heat_scale));
         let mut items = Vec::new();
         if let Some(p) = &sc.render {
             items.push((p.clone(), format!("{} render", sc.name)));
