@@ -641,7 +641,10 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
     ));
     for sc in &r.scenes {
         d.h(3, sc.name.clone());
-        d.p(format!("Top of the colour scale: {:.0} work units per pixel.", sc.heat_scale));
+        d.p(format!(
+            "Top of the colour scale: {:.0} work units per pixel.",
+            sc.heat_scale
+        ));
         let mut items = Vec::new();
         if let Some(p) = &sc.render {
             items.push((p.clone(), format!("{} render", sc.name)));
