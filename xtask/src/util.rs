@@ -29,21 +29,11 @@ pub struct Spread {
 
 impl Spread {
     pub fn of(samples: &[f64]) -> Spread {
-        if samples.is_empty() {
-            return Spread::default();
-        }
-        let mut s = samples.to_vec();
-        s.sort_by(f64::total_cmp);
-        let n = s.len();
-        let median = if n % 2 == 1 {
-            s[n / 2]
-        } else {
-            0.5 * (s[n / 2 - 1] + s[n / 2])
-        };
+        let t = sahara_trace::Timing::from_samples(samples);
         Spread {
-            median,
-            min: s[0],
-            max: s[n - 1],
+            median: t.median,
+            min: t.min,
+            max: t.max,
         }
     }
 
