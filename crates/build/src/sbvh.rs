@@ -577,7 +577,7 @@ pub(crate) fn apply_object(
 
 /// The object median split on the largest axis of the centroid bounds (by centroid, then
 /// position), used below [`SbvhConfig::fallback_depth`].
-fn median_split(refs: &[Ref]) -> (Vec<Ref>, Vec<Ref>) {
+pub(crate) fn median_split(refs: &[Ref]) -> (Vec<Ref>, Vec<Ref>) {
     let mut cb = Aabb::EMPTY;
     for r in refs {
         cb.grow(r.bounds.centroid());

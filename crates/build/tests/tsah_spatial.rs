@@ -1,7 +1,7 @@
 //! Tests of the temporary-subtree SAH builder with spatial splits.
 
 use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
-use sahara_build::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
+use sahara_build::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_build::{registry, BuildInput, Builder, Bvh};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
@@ -35,12 +35,41 @@ fn small() -> TsahSpatialConfig {
     }
 }
 
+/// [`small`] with exact SBVH temporaries: the configuration with the SAH guarantee.
+fn exact() -> TsahSpatialConfig {
+    TsahSpatialConfig {
+        min_size: 24,
+        ..TsahSpatialConfig::EXACT
+    }
+}
+
+/// The plain top-k candidates (no separation) with exact temporaries.
+fn exact_top_k() -> TsahSpatialConfig {
+    TsahSpatialConfig {
+        object_separation: 0.0,
+        spatial_separation: 0,
+        ..exact()
+    }
+}
+
 fn configs() -> Vec<TsahSpatialConfig> {
     vec![
         small(),
+        exact(),
         TsahSpatialConfig {
             min_size: 24,
             ..TsahSpatialConfig::FAST
+        },
+        TsahSpatialConfig {
+            temporary: SbvhConfig::FAST,
+            temporary_search: TemporarySearch::Estimated {
+                bins_per_ref: 3,
+                min_bins: 2,
+                refine: 1,
+            },
+            object_separation: 1.0,
+            spatial_separation: 1000,
+            ..small()
         },
         TsahSpatialConfig {
             spatial_candidates: 0,
@@ -111,13 +140,15 @@ fn sah_never_above_sbvh() {
                 &SbvhBuilder::new(SbvhConfig::DEFAULT).build(&input).unwrap(),
                 &cost,
             );
-            let bvh = TsahSpatialBuilder::new(small()).build(&input).unwrap();
-            bvh.validate(&tris).unwrap();
-            let ours = sah(&bvh, &cost);
-            assert!(
-                ours <= reference * (1.0 + 1e-9),
-                "tsah-sbvh {ours} vs sbvh {reference}"
-            );
+            for config in [exact(), exact_top_k()] {
+                let bvh = TsahSpatialBuilder::new(config).build(&input).unwrap();
+                bvh.validate(&tris).unwrap();
+                let ours = sah(&bvh, &cost);
+                assert!(
+                    ours <= reference * (1.0 + 1e-9),
+                    "tsah-sbvh {ours} vs sbvh {reference} with {config:?}"
+                );
+            }
         }
     }
 }
@@ -127,11 +158,32 @@ fn improves_on_sbvh_somewhere() {
     let tris = soup(1500, 31, 10.0);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let reference = sah(&SbvhBuilder::default().build(&input).unwrap(), &input.cost);
-    let ours = sah(
-        &TsahSpatialBuilder::new(small()).build(&input).unwrap(),
-        &input.cost,
-    );
-    assert!(ours < reference, "tsah-sbvh {ours} vs sbvh {reference}");
+    for config in [small(), exact()] {
+        let ours = sah(
+            &TsahSpatialBuilder::new(config).build(&input).unwrap(),
+            &input.cost,
+        );
+        assert!(ours < reference, "tsah-sbvh {ours} vs sbvh {reference}");
+    }
+}
+
+#[test]
+fn no_duplication_without_budget() {
+    let mut tris = soup(1000, 61, 10.0);
+    tris.extend(needs_spatial());
+    for base in [small(), exact()] {
+        let no_budget = SbvhConfig {
+            duplication_budget: 0.0,
+            ..SbvhConfig::DEFAULT
+        };
+        let config = TsahSpatialConfig {
+            sbvh: no_budget,
+            temporary: no_budget,
+            ..base
+        };
+        let bvh = build_with(&tris, config);
+        assert_eq!(bvh.prim_indices.len(), tris.len());
+    }
 }
 
 #[test]
@@ -152,29 +204,62 @@ fn deterministic_across_thread_counts() {
     let mut tris = soup(2500, 51, 6.0);
     tris.extend(needs_spatial());
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    let config = TsahSpatialConfig {
-        min_size: 256,
-        ..TsahSpatialConfig::DEFAULT
-    };
-    let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| bits(&TsahSpatialBuilder::new(config).build(&input).unwrap()))
-    };
-    assert!(run(1) == run(2), "trees differ between 1 and 2 threads");
+    for config in [
+        TsahSpatialConfig::DEFAULT,
+        TsahSpatialConfig {
+            min_size: 256,
+            ..TsahSpatialConfig::EXACT
+        },
+    ] {
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| bits(&TsahSpatialBuilder::new(config).build(&input).unwrap()))
+        };
+        assert!(run(1) == run(2), "trees differ between 1 and 2 threads");
+        assert!(run(1) == run(3), "trees differ between 1 and 3 threads");
+    }
 }
 
 #[test]
 fn invalid_config_is_rejected() {
     let tris = soup(10, 1, 1.0);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    let bad = TsahSpatialConfig {
-        object_candidates: 0,
-        ..TsahSpatialConfig::DEFAULT
-    };
-    assert!(TsahSpatialBuilder::new(bad).build(&input).is_err());
+    let bad = [
+        TsahSpatialConfig {
+            object_candidates: 0,
+            ..TsahSpatialConfig::DEFAULT
+        },
+        TsahSpatialConfig {
+            object_separation: f32::NAN,
+            ..TsahSpatialConfig::DEFAULT
+        },
+        TsahSpatialConfig {
+            object_separation: 1.5,
+            ..TsahSpatialConfig::DEFAULT
+        },
+        TsahSpatialConfig {
+            temporary_search: TemporarySearch::Estimated {
+                bins_per_ref: 1,
+                min_bins: 1,
+                refine: 2,
+            },
+            ..TsahSpatialConfig::DEFAULT
+        },
+        TsahSpatialConfig {
+            temporary_search: TemporarySearch::Estimated {
+                bins_per_ref: 1,
+                min_bins: 4,
+                refine: 0,
+            },
+            ..TsahSpatialConfig::DEFAULT
+        },
+    ];
+    for config in bad {
+        assert!(TsahSpatialBuilder::new(config).build(&input).is_err());
+    }
 }
 
 #[test]
@@ -184,6 +269,8 @@ fn registry_entry() {
         .find(|e| e.name == "tsah-sbvh")
         .unwrap();
     assert!(e.spatial);
+    assert!(!e.small_inputs_only);
+    assert_eq!(e.max_practical_triangles, None);
     let b = (e.make)();
     assert_eq!(b.name(), "tsah-sbvh");
     let tris = needs_spatial();

@@ -6,10 +6,12 @@
 //! ```
 //!
 //! Scenes come from `SAHARA_SCENES` (default `../shared/scenes`), `SCENES` selects them
-//! (default `sibenik,sponza_dabrovic`).
+//! (default `sibenik,sponza_dabrovic`), `CONFIGS` the configurations (default
+//! `default,fast`; see the list below, `old-default` is the default before issue #4: exact
+//! temporaries, plain top-k candidates, `min_size` 256).
 
 use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
-use sahara_build::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
+use sahara_build::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_build::{BuildInput, Builder};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
@@ -60,7 +62,16 @@ fn measure_knobs() {
     let which = std::env::var("CONFIGS").unwrap_or_else(|_| "default,fast".into());
     let mut configs: Vec<(&str, TsahSpatialConfig)> = vec![
         ("default", TsahSpatialConfig::DEFAULT),
+        ("exact", TsahSpatialConfig::EXACT),
         ("fast", TsahSpatialConfig::FAST),
+        (
+            "top-k",
+            TsahSpatialConfig {
+                object_separation: 0.0,
+                spatial_separation: 0,
+                ..TsahSpatialConfig::DEFAULT
+            },
+        ),
         (
             "k2+2",
             TsahSpatialConfig {
@@ -70,9 +81,28 @@ fn measure_knobs() {
             },
         ),
         (
-            "min1024",
+            "k6+6",
             TsahSpatialConfig {
-                min_size: 1024,
+                object_candidates: 6,
+                spatial_candidates: 6,
+                ..TsahSpatialConfig::DEFAULT
+            },
+        ),
+        (
+            "min256",
+            TsahSpatialConfig {
+                min_size: 256,
+                ..TsahSpatialConfig::DEFAULT
+            },
+        ),
+        (
+            "refine1",
+            TsahSpatialConfig {
+                temporary_search: TemporarySearch::Estimated {
+                    bins_per_ref: 1,
+                    min_bins: 4,
+                    refine: 1,
+                },
                 ..TsahSpatialConfig::DEFAULT
             },
         ),
@@ -84,11 +114,12 @@ fn measure_knobs() {
             },
         ),
         (
-            "k8+8",
+            "old-default",
             TsahSpatialConfig {
-                object_candidates: 8,
-                spatial_candidates: 8,
-                ..TsahSpatialConfig::DEFAULT
+                object_separation: 0.0,
+                spatial_separation: 0,
+                min_size: 256,
+                ..TsahSpatialConfig::EXACT
             },
         ),
     ];
