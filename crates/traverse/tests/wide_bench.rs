@@ -187,3 +187,120 @@ fn bunny_primary_rays() {
     );
     bench_scene(&tris, &bvh, &rays);
 }
+
+/// Reads a ray file of `cargo xtask trace --dump-rays` (32-byte little-endian records:
+/// origin, tmin, direction, tmax).
+fn read_rays(path: &str) -> Vec<Ray> {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    assert_eq!(bytes.len() % 32, 0, "{path}: not a ray file");
+    bytes
+        .chunks_exact(32)
+        .map(|b| {
+            let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+            Ray::new(
+                Vec3A::new(f(0), f(1), f(2)),
+                Vec3A::new(f(4), f(5), f(6)),
+                f(3),
+                f(7),
+            )
+        })
+        .collect()
+}
+
+/// Single-thread throughput of the binary kernel and the wide kernels on a shared scene and a
+/// ray file, timed in interleaved rounds (a benchmark, not a test).
+///
+/// `SAHARA_BENCH_SCENE` (catalog name), `SAHARA_BENCH_RAYS` (a file written by
+/// `cargo xtask trace --dump-rays`, for example the diffuse rays of the scene),
+/// `SAHARA_BENCH_BUILDER` (registry name, default `sweep`) and `SAHARA_BENCH_ROUNDS`
+/// (default 5; each round times every kernel once, median of 5 passes, in a rotating order).
+/// Prints the work per ray and, per kernel, the median Mrays/s with its range and the median
+/// of the per-round ratios to bvh8.
+#[test]
+#[ignore = "benchmark: run with --ignored --nocapture"]
+fn scene_ray_file() {
+    let Ok(scene) = std::env::var("SAHARA_BENCH_SCENE") else {
+        eprintln!("SAHARA_BENCH_SCENE not set");
+        return;
+    };
+    let builder = std::env::var("SAHARA_BENCH_BUILDER").unwrap_or_else(|_| "sweep".into());
+    let rays = read_rays(&std::env::var("SAHARA_BENCH_RAYS").expect("SAHARA_BENCH_RAYS"));
+    let rounds: usize = std::env::var("SAHARA_BENCH_ROUNDS").map_or(5, |s| s.parse().unwrap());
+    let scene = sahara_scene::Catalog::discover().load(&scene).unwrap();
+    let tris = scene.triangles();
+    let input = sahara_build::BuildInput::new(&tris, sahara_build::CostModel::default()).unwrap();
+    let bvh = sahara_build::registry::by_name(&builder)
+        .unwrap_or_else(|| panic!("no builder {builder:?} in the registry"))
+        .build(&input)
+        .unwrap();
+    let t0 = Instant::now();
+    let w8 = Bvh8::from_bvh(&bvh, &tris);
+    let collapse_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let w4 = Bvh4::from_bvh(&bvh, &tris);
+    eprintln!(
+        "{} ({} triangles, {builder}): {} rays; bvh8: {} nodes, {} packets ({:.2} refs/packet), collapse {collapse_ms:.0} ms",
+        scene.name,
+        tris.len(),
+        rays.len(),
+        w8.node_count(),
+        w8.packet_count(),
+        w8.reference_count() as f64 / w8.packet_count() as f64,
+    );
+    let work = [
+        counters(&rays, |r, c| {
+            scalar::closest_hit(&bvh, &tris, r, c);
+        }),
+        counters(&rays, |r, c| {
+            w4.closest_hit(r, c);
+        }),
+        counters(&rays, |r, c| {
+            w8.closest_hit(r, c);
+        }),
+    ];
+    let names = ["bvh2 scalar", "bvh4", "bvh8"];
+    let mut speed: [Vec<f64>; 3] = Default::default();
+    let mut checks = [0u64; 3];
+    for round in 0..rounds {
+        for j in 0..3 {
+            let i = (j + round) % 3;
+            let (m, check) = match i {
+                0 => measure(&rays, |r| scalar::closest_hit(&bvh, &tris, r, &mut NoStats)),
+                1 => measure(&rays, |r| w4.closest_hit(r, &mut NoStats)),
+                _ => measure(&rays, |r| w8.closest_hit(r, &mut NoStats)),
+            };
+            speed[i].push(m);
+            checks[i] = check;
+        }
+    }
+    assert!(
+        checks.iter().all(|&c| c == checks[0]),
+        "the kernels disagree"
+    );
+    let med = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    eprintln!(
+        "{:<12} {:>8} {:>15} {:>9}   work per ray (inner, leaves, triangles)",
+        "kernel", "Mrays/s", "range", "vs bvh8"
+    );
+    for i in 0..3 {
+        let s = &speed[i];
+        let ratios: Vec<f64> = s.iter().zip(&speed[2]).map(|(a, b)| a / b).collect();
+        let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+        eprintln!(
+            "{:<12} {:>8.2} {:>7.2}-{:<7.2} {:>8.3}x   {:.2}, {:.2}, {:.2}",
+            names[i],
+            med(s),
+            lo,
+            hi,
+            med(&ratios),
+            work[i].0,
+            work[i].1,
+            work[i].2
+        );
+    }
+}

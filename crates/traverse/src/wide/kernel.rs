@@ -4,7 +4,7 @@
 use super::{decode_leaf, TriPacket, WideBvh, WideNode, LEAF_BIT, NO_ROOT};
 use crate::{Hit, TraversalStats};
 use sahara_geom::intersect::{
-    accept_hit, gamma, intersect_triangle, lower_distance, WatertightRay, ROBUST_FAR_SCALE,
+    gamma, intersect_triangle, lower_distance, WatertightRay, ROBUST_FAR_SCALE,
 };
 use sahara_geom::Ray;
 use std::mem::MaybeUninit;
@@ -121,11 +121,6 @@ pub(crate) trait Kernel<const W: usize> {
     /// The ray in the backend's registers.
     type Ray: Copy;
 
-    /// True when the packet tests already apply [`accept_hit`] to their hits (the portable
-    /// backend, which calls [`intersect_triangle`]); the SIMD backends leave it to the
-    /// traversal loop, which runs it on the few hit lanes only.
-    const ACCEPTS_HITS: bool;
-
     /// Prepares the ray.
     ///
     /// # Safety
@@ -147,15 +142,16 @@ pub(crate) trait Kernel<const W: usize> {
     ) -> u32;
 
     /// Tests a packet against `[tmin, tmax]` of the ray, returning `(hit mask, fallback mask)`:
-    /// lanes of the hit mask are hits with exactly the values of the `f32` part of
-    /// [`intersect_triangle`] (written to `out` when the mask is not zero, with `t <= tfar`
-    /// also required) that still have to pass [`accept_hit`] unless
-    /// [`ACCEPTS_HITS`](Kernel::ACCEPTS_HITS); lanes of the fallback mask must be tested with
-    /// [`intersect_triangle`].
+    /// lanes of the hit mask are the hits of [`intersect_triangle`] (its `f32` path,
+    /// [`accept_hit`](sahara_geom::intersect::accept_hit)
+    /// included) with `t <= tfar`, and their `t`, `u`, `v` (bit for bit those of
+    /// [`intersect_triangle`]) are written to `out` when the mask is not zero; lanes of the
+    /// fallback mask (an edge function exactly zero) must be tested with
+    /// [`intersect_triangle`]. `NEG` as for [`Kernel::intersect_node`].
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
-    unsafe fn intersect_packet(
+    unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
         r: &Self::Ray,
         rd: &RayData,
@@ -163,16 +159,14 @@ pub(crate) trait Kernel<const W: usize> {
         out: &mut PacketHits,
     ) -> (u32, u32);
 
-    /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`; the hit
-    /// distances are written to `t` when the hit mask is not zero.
+    /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`.
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
-    unsafe fn occlude_packet(
+    unsafe fn occlude_packet<const NEG: bool>(
         p: &TriPacket,
         r: &Self::Ray,
         rd: &RayData,
-        t: &mut [f32; 4],
     ) -> (u32, u32);
 }
 
@@ -303,7 +297,7 @@ fn sort_far_to_near(e: &mut [Entry]) {
 
 /// Tests the packets of a leaf, updating `best` and the culling distance `tfar`.
 #[inline(always)]
-unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
+unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats, const NEG: bool>(
     bvh: &WideBvh<W>,
     child: u32,
     kr: &K::Ray,
@@ -325,14 +319,13 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
     for p in packets {
         stats.triangles(p.len());
         // SAFETY: forwarded from the caller.
-        let (mut hits, mut fallback) = unsafe { K::intersect_packet(p, kr, rd, *tfar, &mut out) };
+        let (mut hits, mut fallback) =
+            unsafe { K::intersect_packet::<NEG>(p, kr, rd, *tfar, &mut out) };
         while hits != 0 {
             let l = hits.trailing_zeros() as usize & 3;
             hits &= hits - 1;
             let prim = p.prims[l];
-            if best.is_improved_by(out.t[l], prim)
-                && (K::ACCEPTS_HITS || accept_lane(p, l, rd, out.t[l]))
-            {
+            if best.is_improved_by(out.t[l], prim) {
                 *best = Hit {
                     t: out.t[l],
                     prim,
@@ -348,12 +341,6 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats>(
         }
         *tfar = widen(best.t.min(rd.tmax));
     }
-}
-
-/// [`accept_hit`] for lane `l` of a packet hit at `t`.
-#[inline(never)]
-fn accept_lane(p: &TriPacket, l: usize, rd: &RayData, t: f32) -> bool {
-    accept_hit(&rd.w, &p.triangle(l), rd.tmin, t)
 }
 
 /// The exact scalar test of one lane (for lanes with an edge function exactly zero).
@@ -379,6 +366,21 @@ fn scalar_lane_occluded(p: &TriPacket, l: usize, rd: &RayData) -> bool {
     intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax).is_some()
 }
 
+/// The test of the root box (an early exit for rays that miss the scene): the vectorised
+/// reference slab test [`intersect_aabb`](sahara_geom::intersect::intersect_aabb), which treats
+/// negative far distances as the `NEG` kernels do (and for `tmin >= 0` they fail either way).
+#[inline(always)]
+fn enters_root<const W: usize>(bvh: &WideBvh<W>, ray: &Ray, rd: &RayData, tfar: f32) -> bool {
+    sahara_geom::intersect::intersect_aabb(
+        ray.origin,
+        ray.inv_direction,
+        rd.box_tmin,
+        tfar,
+        &bvh.root_bounds,
+    )
+    .is_some()
+}
+
 /// Closest-hit traversal.
 ///
 /// # Safety
@@ -401,11 +403,9 @@ pub(crate) unsafe fn closest_hit<
         return best;
     }
     let mut rd = RayData::new(ray);
-    let rb = &bvh.root_bounds;
-    let root_box = [rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z];
     // Culling distance: the nearest hit so far (or tmax), widened.
     let mut tfar = widen(rd.tmax);
-    if rd.slab::<NEG>(root_box, tfar).is_none() {
+    if !enters_root(bvh, ray, &rd, tfar) {
         return best;
     }
     rd.finish(ray);
@@ -416,7 +416,9 @@ pub(crate) unsafe fn closest_hit<
     loop {
         if cur & LEAF_BIT != 0 {
             // SAFETY: forwarded.
-            unsafe { leaf_closest::<K, W, S>(bvh, cur, &kr, &rd, &mut best, &mut tfar, stats) };
+            unsafe {
+                leaf_closest::<K, W, S, NEG>(bvh, cur, &kr, &rd, &mut best, &mut tfar, stats)
+            };
         } else {
             stats.inner();
             debug_assert!((cur as usize) < bvh.nodes.len());
@@ -505,17 +507,14 @@ pub(crate) unsafe fn any_hit<
         return false;
     }
     let mut rd = RayData::new(ray);
-    let rb = &bvh.root_bounds;
-    let root_box = [rb.min.x, rb.max.x, rb.min.y, rb.max.y, rb.min.z, rb.max.z];
     let tfar = widen(rd.tmax);
-    if rd.slab::<NEG>(root_box, tfar).is_none() {
+    if !enters_root(bvh, ray, &rd, tfar) {
         return false;
     }
     rd.finish(ray);
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
     let mut dist = [0.0f32; W];
-    let mut ts = [0.0f32; 4];
     let mut cur = bvh.root;
     loop {
         if cur & LEAF_BIT != 0 {
@@ -527,13 +526,9 @@ pub(crate) unsafe fn any_hit<
             for p in packets {
                 stats.triangles(p.len());
                 // SAFETY: forwarded.
-                let (mut hits, mut fallback) = unsafe { K::occlude_packet(p, &kr, &rd, &mut ts) };
-                while hits != 0 {
-                    let l = hits.trailing_zeros() as usize & 3;
-                    hits &= hits - 1;
-                    if K::ACCEPTS_HITS || accept_lane(p, l, &rd, ts[l]) {
-                        return true;
-                    }
+                let (hits, mut fallback) = unsafe { K::occlude_packet::<NEG>(p, &kr, &rd) };
+                if hits != 0 {
+                    return true;
                 }
                 while fallback != 0 {
                     let l = fallback.trailing_zeros() as usize & 3;

@@ -5,14 +5,17 @@
 //! tests all children), and whose leaves hold triangles in packets of 4 (vertices stored SoA,
 //! padded with NaN lanes that never hit). [`Bvh4`] and [`Bvh8`] are the two supported widths.
 //!
-//! **Collapse.** The standard greedy, SAH-aware collapse (as in Embree's and tinybvh's wide
-//! BVHs): starting from the two children of a binary node, repeatedly open (replace by its two
-//! children) the inner child with the largest surface area, until the wide node has `W`
-//! children or only leaves remain. Opening the largest box first keeps the SAH cost low: large
-//! boxes are the ones rays are most likely to enter. Binary subtrees with at most 4 references
-//! become one leaf packet; a binary leaf with more than 32 references becomes a small subtree
-//! of leaves (sorted along the leaf's longest axis). Every triangle keeps its original index,
-//! and spatial-split trees (a triangle in several leaves) are supported.
+//! **Collapse.** The SAH-optimal collapse of Ylitie, Karras and Laine (2017, "Efficient
+//! incoherent ray traversal on GPUs through compressed wide BVHs"): a dynamic program over the
+//! binary tree computes, for every binary node and every number of child slots `1..=W` it may
+//! take in its wide parent, the least SAH cost of its subtree — as one leaf over the whole
+//! subtree (at most 8 packets), as a wide node, or distributed over several slots — and the
+//! wide tree is read off the optimum. The cost model counts a wide node test as 1, a leaf
+//! visit as 0.5 plus 0.5 per packet of 4 triangles. It is deterministic (fixed tie-breaks), and
+//! the wide tree depends on the binary tree only (not on the CPU). A binary leaf with more
+//! than 32 references becomes a small subtree of leaves (sorted along the leaf's longest
+//! axis). Every triangle keeps its original index, and spatial-split trees (a triangle in
+//! several leaves) are supported.
 //!
 //! **Kernels.** Closest hit and any hit, stack-based, children visited near to far (the hit
 //! children are sorted by entry distance). Three backends share the traversal code
@@ -35,9 +38,11 @@
 //!   to [`intersect_triangle`] itself. So `t`, `u`, `v` and the primitive are those of the
 //!   reference kernel [`crate::scalar::closest_hit`];
 //! * candidate triangles are accepted against the ray's own `[tmin, tmax]`, must pass
-//!   [`accept_hit`] (applied by the traversal loop to the SIMD lanes that hit), and are then
-//!   compared with [`Hit::is_improved_by`], so the result does not depend on the order in which
-//!   leaves are visited (equal distances: lowest primitive index);
+//!   [`accept_hit`] (the SIMD backends evaluate its bounds test on all lanes of a packet with
+//!   the operations of [`intersect_aabb`]; degenerate triangles, which it always rejects, are
+//!   stored as NaN lanes that never hit), and are then compared with [`Hit::is_improved_by`],
+//!   so the result does not depend on the order in which leaves are visited (equal distances:
+//!   lowest primitive index);
 //! * boxes are tested against `[lower_distance(tmin), cull_distance(min(best t, tmax))]` (the
 //!   interval widened by 2^-16 of itself at both ends), and rays with `tmin < 0` also make
 //!   negative far distances conservative (`× (1 - 2γ(3))`). Because [`accept_hit`] only admits

@@ -11,7 +11,6 @@ pub(crate) struct Portable;
 
 impl<const W: usize> Kernel<W> for Portable {
     type Ray = ();
-    const ACCEPTS_HITS: bool = true;
 
     #[inline(always)]
     unsafe fn prepare(_: &RayData) {}
@@ -37,7 +36,7 @@ impl<const W: usize> Kernel<W> for Portable {
     }
 
     #[inline(always)]
-    unsafe fn intersect_packet(
+    unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
         _: &(),
         rd: &RayData,
@@ -62,7 +61,7 @@ impl<const W: usize> Kernel<W> for Portable {
     }
 
     #[inline(always)]
-    unsafe fn occlude_packet(p: &TriPacket, _: &(), rd: &RayData, _: &mut [f32; 4]) -> (u32, u32) {
+    unsafe fn occlude_packet<const NEG: bool>(p: &TriPacket, _: &(), rd: &RayData) -> (u32, u32) {
         let mut mask = 0;
         for l in 0..4 {
             if p.prims[l] != u32::MAX

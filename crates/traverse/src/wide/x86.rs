@@ -102,17 +102,33 @@ unsafe fn node4<const W: usize, const NEG: bool>(
     }
 }
 
-/// The shared part of the 4-wide watertight test: `(u, v, w, t_scaled, det, ok, zero)`.
+/// The edge functions of the 4-wide watertight test (the part every packet needs).
+struct Edges {
+    u: __m128,
+    v: __m128,
+    w: __m128,
+    det: __m128,
+    /// `det` is not zero or NaN, and the edge functions do not have mixed signs.
+    ok: __m128,
+    /// An edge function is exactly zero: the lane needs the exact scalar test.
+    is_zero: __m128,
+    /// The vertices' coordinates along the ray's dominant axis, relative to the origin (not
+    /// yet scaled by the shear), for [`t_scaled`].
+    dz: [__m128; 3],
+}
+
+/// The edge functions of the 4-wide watertight test, with the operations of the reference.
 #[inline(always)]
-unsafe fn tri4(p: &TriPacket, r: &SseRay) -> [__m128; 7] {
+unsafe fn tri4(p: &TriPacket, r: &SseRay) -> Edges {
     // SAFETY (whole function): the packet is 16-byte aligned and its vertex rows hold 4
     // floats each; the axes are in 0..3.
     unsafe {
         let base = p.v.as_ptr().cast::<f32>();
         let [kx, ky, kz] = r.w_axis;
         let [ox, oy, oz] = r.w_origin;
-        let [sx, sy, sz] = r.w_shear;
-        // Vertex k, relative to the origin, sheared: (x, y, z·sz) as in the reference.
+        let [sx, sy, _] = r.w_shear;
+        // Vertex k, relative to the origin, sheared: (x, y) as in the reference, and the
+        // unscaled z.
         let vert = |k: usize| {
             let row = base.add(k * 12);
             let dx = _mm_sub_ps(_mm_load_ps(row.add(kx * 4)), ox);
@@ -121,7 +137,7 @@ unsafe fn tri4(p: &TriPacket, r: &SseRay) -> [__m128; 7] {
             (
                 _mm_sub_ps(dx, _mm_mul_ps(sx, dz)),
                 _mm_sub_ps(dy, _mm_mul_ps(sy, dz)),
-                _mm_mul_ps(sz, dz),
+                dz,
             )
         };
         let (ax, ay, az) = vert(0);
@@ -135,25 +151,40 @@ unsafe fn tri4(p: &TriPacket, r: &SseRay) -> [__m128; 7] {
             _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
             _mm_cmpeq_ps(w, zero),
         );
-        let neg = _mm_or_ps(
-            _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
-            _mm_cmplt_ps(w, zero),
-        );
-        let pos = _mm_or_ps(
-            _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
-            _mm_cmpgt_ps(w, zero),
+        // Mixed signs: some edge function < 0 and some > 0. `minps`/`maxps` may hide a NaN,
+        // but a NaN edge function makes `det` NaN, which fails below anyway.
+        let mixed = _mm_and_ps(
+            _mm_cmplt_ps(_mm_min_ps(u, _mm_min_ps(v, w)), zero),
+            _mm_cmpgt_ps(_mm_max_ps(u, _mm_max_ps(v, w)), zero),
         );
         let det = _mm_add_ps(_mm_add_ps(u, v), w);
-        // det != 0 and not NaN, and the edge functions do not have mixed signs.
         let ok = _mm_andnot_ps(
-            _mm_and_ps(neg, pos),
+            mixed,
             _mm_and_ps(_mm_cmpneq_ps(det, zero), _mm_cmpord_ps(det, det)),
         );
-        let t_scaled = _mm_add_ps(
-            _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
-            _mm_mul_ps(w, cz),
-        );
-        [u, v, w, t_scaled, det, ok, is_zero]
+        Edges {
+            u,
+            v,
+            w,
+            det,
+            ok,
+            is_zero,
+            dz: [az, bz, cz],
+        }
+    }
+}
+
+/// The scaled hit distance `u·az + v·bz + w·cz` of the reference (`az = sz · dz`, …).
+#[inline(always)]
+unsafe fn t_scaled(e: &Edges, r: &SseRay) -> __m128 {
+    // SAFETY (whole function): SSE2 is part of x86-64.
+    unsafe {
+        let sz = r.w_shear[2];
+        let [az, bz, cz] = e.dz.map(|d| _mm_mul_ps(sz, d));
+        _mm_add_ps(
+            _mm_add_ps(_mm_mul_ps(e.u, az), _mm_mul_ps(e.v, bz)),
+            _mm_mul_ps(e.w, cz),
+        )
     }
 }
 
@@ -178,42 +209,100 @@ unsafe fn tri4_range(r: &SseRay, t_scaled: __m128, det: __m128, ok: __m128) -> [
     }
 }
 
+/// [`accept_hit`] of the 4 lanes of a packet hit at `t` (degenerate triangles are stored as
+/// NaN lanes, which never hit, so only the other two conditions are left): `t` is finite, and
+/// the slab test of each lane's triangle bounds, with the operations of [`intersect_aabb`] and
+/// the reciprocal direction of the watertight constants (as the reference), admits
+/// `[lower_distance(tmin), cull_distance(t)]`. `NEG` as in the box tests (for `tmin >= 0` a
+/// negative far distance fails with either scale).
+///
+/// [`accept_hit`]: sahara_geom::intersect::accept_hit
+/// [`intersect_aabb`]: sahara_geom::intersect::intersect_aabb
 #[inline(always)]
-unsafe fn packet_closest(p: &TriPacket, r: &SseRay, tfar: f32, out: &mut PacketHits) -> (u32, u32) {
+unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayData, t: __m128) -> __m128 {
+    // SAFETY (whole function): the packet is 16-byte aligned and its vertex rows hold 4
+    // floats each.
+    unsafe {
+        let base = p.v.as_ptr().cast::<f32>();
+        let at = _mm_and_ps(t, _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff)));
+        let finite = _mm_cmplt_ps(at, _mm_set1_ps(f32::INFINITY));
+        // `cull_distance(t)`: t + |t| · 2^-16.
+        let mut far = _mm_add_ps(t, _mm_mul_ps(at, _mm_set1_ps(1.0 / 65536.0)));
+        let mut near = r.box_tmin;
+        let scale = _mm_set1_ps(ROBUST_FAR_SCALE);
+        for a in 0..3 {
+            let v0 = _mm_load_ps(base.add(a * 4));
+            let v1 = _mm_load_ps(base.add(12 + a * 4));
+            let v2 = _mm_load_ps(base.add(24 + a * 4));
+            let lo = _mm_min_ps(v0, _mm_min_ps(v1, v2));
+            let hi = _mm_max_ps(v0, _mm_max_ps(v1, v2));
+            let inv = _mm_set1_ps(rd.w.inv_direction[a]);
+            // The near plane is the maximum where the reciprocal direction is negative.
+            let neg = _mm_cmplt_ps(inv, _mm_setzero_ps());
+            let pn = _mm_or_ps(_mm_and_ps(neg, hi), _mm_andnot_ps(neg, lo));
+            let pf = _mm_or_ps(_mm_and_ps(neg, lo), _mm_andnot_ps(neg, hi));
+            let tn = _mm_mul_ps(_mm_sub_ps(pn, r.origin[a]), inv);
+            let tf0 = _mm_mul_ps(_mm_sub_ps(pf, r.origin[a]), inv);
+            let mut tf = _mm_mul_ps(tf0, scale);
+            if NEG {
+                tf = _mm_max_ps(tf, _mm_mul_ps(tf0, _mm_set1_ps(ROBUST_NEG_FAR_SCALE)));
+            }
+            near = _mm_max_ps(tn, near);
+            far = _mm_min_ps(tf, far);
+        }
+        _mm_and_ps(finite, _mm_cmple_ps(near, far))
+    }
+}
+
+#[inline(always)]
+unsafe fn packet_closest<const NEG: bool>(
+    p: &TriPacket,
+    r: &SseRay,
+    rd: &RayData,
+    tfar: f32,
+    out: &mut PacketHits,
+) -> (u32, u32) {
     // SAFETY (whole function): SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
     unsafe {
-        let [_, v, w, t_scaled, det, ok, is_zero] = tri4(p, r);
-        let pre = _mm_movemask_ps(ok) as u32;
-        let fallback = _mm_movemask_ps(is_zero) as u32;
+        let e = tri4(p, r);
+        let pre = _mm_movemask_ps(e.ok) as u32;
+        let fallback = _mm_movemask_ps(e.is_zero) as u32;
         if pre & !fallback == 0 {
             return (0, fallback);
         }
-        let [ok, t, inv] = tri4_range(r, t_scaled, det, ok);
-        let ok = _mm_and_ps(ok, _mm_cmple_ps(t, _mm_set1_ps(tfar)));
-        let hits = _mm_movemask_ps(_mm_andnot_ps(is_zero, ok)) as u32;
+        let [ok, t, inv] = tri4_range(r, t_scaled(&e, r), e.det, e.ok);
+        let ok = _mm_andnot_ps(
+            e.is_zero,
+            _mm_and_ps(ok, _mm_cmple_ps(t, _mm_set1_ps(tfar))),
+        );
+        if _mm_movemask_ps(ok) == 0 {
+            return (0, fallback);
+        }
+        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, rd, t))) as u32;
         if hits != 0 {
             _mm_storeu_ps(out.t.as_mut_ptr(), t);
-            _mm_storeu_ps(out.u.as_mut_ptr(), _mm_mul_ps(v, inv));
-            _mm_storeu_ps(out.v.as_mut_ptr(), _mm_mul_ps(w, inv));
+            _mm_storeu_ps(out.u.as_mut_ptr(), _mm_mul_ps(e.v, inv));
+            _mm_storeu_ps(out.v.as_mut_ptr(), _mm_mul_ps(e.w, inv));
         }
         (hits, fallback)
     }
 }
 
 #[inline(always)]
-unsafe fn packet_occluded(p: &TriPacket, r: &SseRay, t_out: &mut [f32; 4]) -> (u32, u32) {
-    // SAFETY (whole function): SSE2 is part of x86-64; `t_out` holds 4 floats.
+unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayData) -> (u32, u32) {
+    // SAFETY (whole function): SSE2 is part of x86-64.
     unsafe {
-        let [_, _, _, t_scaled, det, ok, is_zero] = tri4(p, r);
-        let fallback = _mm_movemask_ps(is_zero) as u32;
-        if _mm_movemask_ps(ok) as u32 & !fallback == 0 {
+        let e = tri4(p, r);
+        let fallback = _mm_movemask_ps(e.is_zero) as u32;
+        if _mm_movemask_ps(e.ok) as u32 & !fallback == 0 {
             return (0, fallback);
         }
-        let [ok, t, _] = tri4_range(r, t_scaled, det, ok);
-        let hits = _mm_movemask_ps(_mm_andnot_ps(is_zero, ok)) as u32;
-        if hits != 0 {
-            _mm_storeu_ps(t_out.as_mut_ptr(), t);
+        let [ok, t, _] = tri4_range(r, t_scaled(&e, r), e.det, e.ok);
+        let ok = _mm_andnot_ps(e.is_zero, ok);
+        if _mm_movemask_ps(ok) == 0 {
+            return (0, fallback);
         }
+        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, rd, t))) as u32;
         (hits, fallback)
     }
 }
@@ -223,7 +312,6 @@ pub(crate) struct Sse;
 
 impl<const W: usize> Kernel<W> for Sse {
     type Ray = SseRay;
-    const ACCEPTS_HITS: bool = false;
 
     #[inline(always)]
     unsafe fn prepare(rd: &RayData) -> SseRay {
@@ -253,26 +341,25 @@ impl<const W: usize> Kernel<W> for Sse {
     }
 
     #[inline(always)]
-    unsafe fn intersect_packet(
+    unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        _: &RayData,
+        rd: &RayData,
         tfar: f32,
         out: &mut PacketHits,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest(p, r, tfar, out) }
+        unsafe { packet_closest::<NEG>(p, r, rd, tfar, out) }
     }
 
     #[inline(always)]
-    unsafe fn occlude_packet(
+    unsafe fn occlude_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        _: &RayData,
-        t: &mut [f32; 4],
+        rd: &RayData,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded(p, r, t) }
+        unsafe { packet_occluded::<NEG>(p, r, rd) }
     }
 }
 
@@ -282,7 +369,6 @@ pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
     type Ray = SseRay;
-    const ACCEPTS_HITS: bool = false;
 
     #[inline(always)]
     unsafe fn prepare(rd: &RayData) -> SseRay {
@@ -332,29 +418,28 @@ impl<const W: usize> Kernel<W> for Avx2 {
         }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn intersect_packet(
+    // Not a `target_feature` function, so that it is always inlined into the AVX2 entry
+    // points (which enable the features; the SSE code is then VEX-encoded).
+    #[inline(always)]
+    unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        _: &RayData,
+        rd: &RayData,
         tfar: f32,
         out: &mut PacketHits,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest(p, r, tfar, out) }
+        unsafe { packet_closest::<NEG>(p, r, rd, tfar, out) }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn occlude_packet(
+    #[inline(always)]
+    unsafe fn occlude_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        _: &RayData,
-        t: &mut [f32; 4],
+        rd: &RayData,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded(p, r, t) }
+        unsafe { packet_occluded::<NEG>(p, r, rd) }
     }
 }
 
