@@ -6,50 +6,12 @@ use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
-fn rand_point(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3A {
-    Vec3A::new(
-        rng.range_f32(lo, hi),
-        rng.range_f32(lo, hi),
-        rng.range_f32(lo, hi),
-    )
-}
+mod spatial_support;
+use spatial_support::clustered;
 
-/// Random triangles of random sizes in a 100³ box.
+/// Random triangles of random sizes (up to 5) in a 100³ box.
 fn soup(n: usize, seed: u64) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(seed, 1);
-    (0..n)
-        .map(|_| {
-            let c = rand_point(&mut rng, 0.0, 100.0);
-            let s = rng.range_f32(0.01, 5.0);
-            Triangle::new(
-                c + rand_point(&mut rng, -s, s),
-                c + rand_point(&mut rng, -s, s),
-                c + rand_point(&mut rng, -s, s),
-            )
-        })
-        .collect()
-}
-
-/// Thousands of triangles whose box centroids (nearly) coincide, spanning a big box.
-fn clustered(n: usize) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(7, 3);
-    let c = Vec3A::splat(50.0);
-    (0..n)
-        .map(|i| {
-            let s = rng.range_f32(0.1, 50.0);
-            let j = if i % 2 == 0 {
-                Vec3A::ZERO
-            } else {
-                rand_point(&mut rng, -1e-4, 1e-4)
-            };
-            // Symmetric about c (+ jitter): the box centroid is c + j.
-            Triangle::new(
-                c + j + Vec3A::new(-s, -s, 0.0),
-                c + j + Vec3A::new(s, 0.0, -s),
-                c + j + Vec3A::new(0.0, s, s),
-            )
-        })
-        .collect()
+    spatial_support::soup(n, seed, 5.0)
 }
 
 fn degenerate_mix() -> Vec<Triangle> {

@@ -1,4 +1,4 @@
-//! Scene generators shared by the spatial-split builder tests (`sbvh.rs`, `tsah_spatial.rs`).
+//! Scene generators shared by the builder tests (`binned.rs`, `sbvh.rs`, `tsah_spatial.rs`).
 #![allow(dead_code)]
 
 use sahara_build::Bvh;
