@@ -17,8 +17,25 @@ pub const fn gamma(n: i32) -> f32 {
     (n as f32 * e) / (1.0 - n as f32 * e)
 }
 
-/// The factor that makes the far slab distance conservative (Ize 2013): `1 + 2γ(3)`.
+/// The factor that makes a positive far slab distance conservative (Ize 2013): `1 + 2γ(3)`.
 pub const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// The factor that makes a *negative* far slab distance conservative: `1 - 2γ(3)` (only rays
+/// with `tmin < 0` can use boxes behind their origin).
+pub const ROBUST_NEG_FAR_SCALE: f32 = 1.0 - 2.0 * gamma(3);
+
+/// The reciprocal direction scaled for the far planes of the slab test, for positive and for
+/// negative far distances: `(inv_direction · ROBUST_FAR_SCALE, inv_direction ·
+/// ROBUST_NEG_FAR_SCALE)`. The scale is folded into the per-ray factor rather than applied to
+/// every far distance (one multiplication per plane instead of two); [`intersect_aabb`]
+/// computes these, and SIMD kernels that precompute them per ray get the same bits.
+#[inline]
+pub fn far_factors(inv_direction: Vec3A) -> (Vec3A, Vec3A) {
+    (
+        inv_direction * ROBUST_FAR_SCALE,
+        inv_direction * ROBUST_NEG_FAR_SCALE,
+    )
+}
 
 /// Per-ray constants of the watertight triangle test.
 #[derive(Clone, Copy, Debug)]
@@ -33,7 +50,7 @@ pub struct WatertightRay {
     pub kx: usize,
     /// See `kx`.
     pub ky: usize,
-    /// Shear constants: `dir[kx] / dir[kz]`, `dir[ky] / dir[kz]`, `1 / dir[kz]`.
+    /// Shear constants: `dir[kx] · (1 / dir[kz])`, `dir[ky] · (1 / dir[kz])`, `1 / dir[kz]`.
     pub shear: Vec3A,
 }
 
@@ -41,27 +58,35 @@ impl WatertightRay {
     /// Precomputes the axis permutation and the shear for a ray.
     #[inline]
     pub fn new(origin: Vec3A, direction: Vec3A) -> Self {
+        Self::with_inverse(origin, direction, direction.recip())
+    }
+
+    /// [`WatertightRay::new`] for a ray whose reciprocal direction is known
+    /// (`inv_direction` must be `direction.recip()`, as [`Ray::inv_direction`] is): no
+    /// division, and no branch on the direction (the dominant axis of an incoherent ray is
+    /// unpredictable).
+    #[inline]
+    pub fn with_inverse(origin: Vec3A, direction: Vec3A, inv_direction: Vec3A) -> Self {
         let a = direction.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if direction[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let dz = direction[kz];
+        // kz: the first axis of largest magnitude (z when a component is NaN).
+        let x_max = (a.x >= a.y) & (a.x >= a.z);
+        let kz = (!x_max as usize) * (2 - (a.y >= a.z) as usize);
+        let d = direction.to_array();
+        // (kx, ky) = (kz + 1, kz + 2) mod 3, swapped when direction[kz] < 0 (keeps the
+        // winding, so the sign of the edge functions does not depend on the ray).
+        let k1 = (kz + 1) % 3;
+        let k2 = (kz + 2) % 3;
+        let swap = 0usize.wrapping_sub((d[kz] < 0.0) as usize);
+        let kx = k1 ^ ((k1 ^ k2) & swap);
+        let ky = k1 ^ k2 ^ kx;
+        let inv_z = inv_direction.to_array()[kz];
         Self {
             origin,
-            inv_direction: direction.recip(),
+            inv_direction,
             kz,
             kx,
             ky,
-            shear: Vec3A::new(direction[kx] / dz, direction[ky] / dz, 1.0 / dz),
+            shear: Vec3A::new(d[kx] * inv_z, d[ky] * inv_z, inv_z),
         }
     }
 }
@@ -210,12 +235,18 @@ pub fn intersect_ray_triangle(ray: &Ray, tri: &Triangle) -> Option<TriangleHit> 
 /// Robust slab test (Ize 2013). Returns the entry distance when the ray's `[tmin, tmax]`
 /// overlaps the box, using `inv_direction` for the reciprocal direction.
 ///
-/// Far distances are scaled away from zero by `2γ(3)` ([`ROBUST_FAR_SCALE`] for positive
-/// distances, `1 - 2γ(3)` for negative ones, which matter when `tmin < 0`) so that a ray
-/// that really enters the box is never rejected by rounding. The near and far planes of each
-/// axis are chosen by the sign of the reciprocal direction, so a zero direction component with
-/// the origin exactly on a slab plane (`0 · ∞ = NaN`) leaves that slab unconstrained on both
-/// the minimum and the maximum plane, which keeps the test conservative.
+/// Per axis, the near distance is `(near plane - origin) · inv_direction` and the far distance
+/// `(far plane - origin) · (inv_direction · ROBUST_FAR_SCALE)` ([`far_factors`]): three
+/// roundings of at most 2^-24 each plus the one of the factor are outweighed by the
+/// `1 + 2γ(3)` scale, so a ray that really enters the box is never rejected by rounding. For
+/// `tmin < 0` (boxes behind the origin matter) a negative far distance must be made larger
+/// instead, so the far distance is the larger of that and `(far plane - origin) ·
+/// (inv_direction · ROBUST_NEG_FAR_SCALE)`; for `tmin >= 0` a negative far distance fails
+/// either way. The near and far planes of each axis are chosen by the sign of the reciprocal
+/// direction, so a zero direction component with the origin exactly on a slab plane
+/// (`0 · ∞ = NaN`) leaves that slab unconstrained on both the minimum and the maximum plane,
+/// which keeps the test conservative. The computed distances are monotonic in the box (a
+/// larger box never enters later or leaves earlier), which [`accept_hit`] relies on.
 #[inline]
 pub fn intersect_aabb(
     origin: Vec3A,
@@ -228,13 +259,14 @@ pub fn intersect_aabb(
     let lo = Vec3A::select(negative, aabb.max, aabb.min);
     let hi = Vec3A::select(negative, aabb.min, aabb.max);
     let tnear = (lo - origin) * inv_direction;
-    let tf = (hi - origin) * inv_direction;
-    let scale = Vec3A::select(
-        tf.cmplt(Vec3A::ZERO),
-        Vec3A::splat(2.0 - ROBUST_FAR_SCALE),
-        Vec3A::splat(ROBUST_FAR_SCALE),
-    );
-    let tfar = tf * scale;
+    let (far_pos, far_neg) = far_factors(inv_direction);
+    let d = hi - origin;
+    let mut tfar = d * far_pos;
+    if tmin < 0.0 {
+        // `maxps(tfar, other)`: the second operand when either is NaN.
+        let other = d * far_neg;
+        tfar = Vec3A::select(tfar.cmpgt(other), tfar, other);
+    }
     // f32::max / f32::min return the non-NaN operand: a NaN slab distance is ignored.
     let near = tmin.max(tnear.x).max(tnear.y).max(tnear.z);
     let far = tmax.min(tfar.x).min(tfar.y).min(tfar.z);

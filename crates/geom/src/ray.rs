@@ -15,7 +15,9 @@ pub struct Ray {
     pub tmin: f32,
     /// End of the valid interval.
     pub tmax: f32,
-    /// `1 / direction`, component-wise.
+    /// `1 / direction`, component-wise. It must be `direction.recip()` (as [`Ray::new`]
+    /// computes it): the box tests and the watertight triangle test's constants
+    /// ([`Ray::watertight`]) both use it.
     pub inv_direction: Vec3A,
 }
 
@@ -65,6 +67,6 @@ impl Ray {
     /// Precomputes the per-ray data of the watertight triangle test.
     #[inline]
     pub fn watertight(&self) -> WatertightRay {
-        WatertightRay::new(self.origin, self.direction)
+        WatertightRay::with_inverse(self.origin, self.direction, self.inv_direction)
     }
 }

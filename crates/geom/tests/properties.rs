@@ -4,7 +4,9 @@ use approx::assert_relative_eq;
 use proptest::prelude::*;
 use sahara_geom::{
     clip::{clip_triangle, clipped_area, split_triangle_bounds},
-    intersect::{cull_distance, intersect_aabb, intersect_ray_triangle, lower_distance},
+    intersect::{
+        cull_distance, intersect_aabb, intersect_ray_triangle, lower_distance, WatertightRay,
+    },
     Aabb, Ray, Triangle, Vec3A,
 };
 
@@ -119,6 +121,75 @@ proptest! {
                 );
             }
         }
+    }
+
+    /// The far distances of the slab test are conservative: where the ray's line (its `f32`
+    /// origin and direction, in `f64`) leaves the box at `t_exit`, the test admits the interval
+    /// that starts at `t_exit` rounded down. Only the `1 ± 2γ(3)` scales folded into the far
+    /// factors ([`sahara_geom::intersect::far_factors`]) make up for the four roundings.
+    #[test]
+    fn slab_far_distances_are_never_rounded_below_the_exit(
+        b in aabb(),
+        o in v3(),
+        at in (0.0f32..=1.0, 0.0f32..=1.0, 0.0f32..=1.0),
+        scale in prop_oneof![Just(1.0f32), 1e-3f32..1e3, -1e3f32..-1e-3],
+    ) {
+        // Aimed at a point of the box (so the line crosses it, up to rounding), or away from
+        // it: then the box lies behind the origin, `t_exit < 0`, and the test runs with
+        // `tmin < 0`, where negative far distances must be rounded up.
+        let p = (b.min + (b.max - b.min) * Vec3A::new(at.0, at.1, at.2)).clamp(b.min, b.max);
+        let d = (p - o) * scale;
+        let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
+        let (mut t_enter, mut t_exit) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if d64[a] == 0.0 {
+                prop_assume!(o64[a] > b.min[a] as f64 && o64[a] < b.max[a] as f64);
+                continue;
+            }
+            let t0 = (b.min[a] as f64 - o64[a]) / d64[a];
+            let t1 = (b.max[a] as f64 - o64[a]) / d64[a];
+            t_enter = t_enter.max(t0.min(t1));
+            t_exit = t_exit.min(t0.max(t1));
+        }
+        prop_assume!(t_exit >= t_enter && t_exit.abs() < 1e30);
+        let mut tmin = t_exit as f32;
+        if tmin as f64 > t_exit {
+            // One step down (towards -inf).
+            tmin = match tmin {
+                x if x > 0.0 => f32::from_bits(x.to_bits() - 1),
+                x if x < 0.0 => f32::from_bits(x.to_bits() + 1),
+                _ => -f32::from_bits(1),
+            };
+        }
+        let ray = Ray::new(o, d, tmin, f32::INFINITY);
+        prop_assert!(
+            intersect_aabb(o, ray.inv_direction, tmin, f32::INFINITY, &b).is_some(),
+            "{ray:?} leaves {b:?} at {t_exit} but is rejected from {tmin}"
+        );
+    }
+
+    /// The division-free watertight constants follow their definition: `kz` is the first axis
+    /// of largest magnitude, `(kx, ky)` the next two (swapped for a negative `direction[kz]`),
+    /// and the shear uses the reciprocal of `direction[kz]`; `new` and `with_inverse` agree.
+    #[test]
+    fn watertight_constants_follow_the_definition(
+        d in (-3i32..=3, -3i32..=3, -3i32..=3, 0.1f32..10.0),
+    ) {
+        let dir = Vec3A::new(d.0 as f32, d.1 as f32, d.2 as f32 * d.3);
+        let w = WatertightRay::new(Vec3A::ZERO, dir);
+        let a = dir.abs();
+        let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        prop_assert_eq!((w.kx, w.ky, w.kz), (kx, ky, kz));
+        let inv = dir.recip();
+        let shear = Vec3A::new(dir[kx] * inv[kz], dir[ky] * inv[kz], inv[kz]);
+        prop_assert_eq!(w.shear.to_array().map(f32::to_bits), shear.to_array().map(f32::to_bits));
+        let r = Ray::new(Vec3A::ONE, dir, 0.0, 1.0).watertight();
+        prop_assert_eq!((r.kx, r.ky, r.kz), (kx, ky, kz));
+        prop_assert_eq!(r.shear.to_array().map(f32::to_bits), shear.to_array().map(f32::to_bits));
     }
 }
 

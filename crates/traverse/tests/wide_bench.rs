@@ -212,8 +212,10 @@ fn read_rays(path: &str) -> Vec<Ray> {
 ///
 /// `SAHARA_BENCH_SCENE` (catalog name), `SAHARA_BENCH_RAYS` (a file written by
 /// `cargo xtask trace --dump-rays`, for example the diffuse rays of the scene),
-/// `SAHARA_BENCH_BUILDER` (registry name, default `sweep`) and `SAHARA_BENCH_ROUNDS`
-/// (default 5; each round times every kernel once, median of 5 passes, in a rotating order).
+/// `SAHARA_BENCH_BUILDER` (registry name, default `sweep`), `SAHARA_BENCH_ROUNDS`
+/// (default 5; each round times every kernel once, median of 5 passes, in a rotating order)
+/// and `SAHARA_BENCH_KERNELS` (a comma-separated subset of `bvh2,bvh4,bvh8`, default all: to
+/// compare builds of the kernels in interleaved processes, time `bvh8` alone).
 /// Prints the work per ray and, per kernel, the median Mrays/s with its range and the median
 /// of the per-round ratios to bvh8.
 #[test]
@@ -258,34 +260,40 @@ fn scene_ray_file() {
         }),
     ];
     let names = ["bvh2 scalar", "bvh4", "bvh8"];
+    let wanted = std::env::var("SAHARA_BENCH_KERNELS").unwrap_or_else(|_| "bvh2,bvh4,bvh8".into());
+    let timed: Vec<usize> = ["bvh2", "bvh4", "bvh8"]
+        .iter()
+        .enumerate()
+        .filter(|(_, k)| wanted.split(',').any(|w| w.trim() == **k))
+        .map(|(i, _)| i)
+        .collect();
     let mut speed: [Vec<f64>; 3] = Default::default();
-    let mut checks = [0u64; 3];
+    let mut checks: [Option<u64>; 3] = [None; 3];
     for round in 0..rounds {
-        for j in 0..3 {
-            let i = (j + round) % 3;
+        for j in 0..timed.len() {
+            let i = timed[(j + round) % timed.len()];
             let (m, check) = match i {
                 0 => measure(&rays, |r| scalar::closest_hit(&bvh, &tris, r, &mut NoStats)),
                 1 => measure(&rays, |r| w4.closest_hit(r, &mut NoStats)),
                 _ => measure(&rays, |r| w8.closest_hit(r, &mut NoStats)),
             };
             speed[i].push(m);
-            checks[i] = check;
+            checks[i] = Some(check);
         }
     }
-    assert!(
-        checks.iter().all(|&c| c == checks[0]),
-        "the kernels disagree"
-    );
+    let mut sums = checks.iter().flatten();
+    let first = sums.next();
+    assert!(sums.all(|c| Some(c) == first), "the kernels disagree");
     let med = |v: &[f64]| {
         let mut v = v.to_vec();
         v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
     };
     eprintln!(
         "{:<12} {:>8} {:>15} {:>9}   work per ray (inner, leaves, triangles)",
         "kernel", "Mrays/s", "range", "vs bvh8"
     );
-    for i in 0..3 {
+    for &i in &timed {
         let s = &speed[i];
         let ratios: Vec<f64> = s.iter().zip(&speed[2]).map(|(a, b)| a / b).collect();
         let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| {

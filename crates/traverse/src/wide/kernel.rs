@@ -3,15 +3,9 @@
 
 use super::{decode_leaf, TriPacket, WideBvh, WideNode, LEAF_BIT, NO_ROOT};
 use crate::{Hit, TraversalStats};
-use sahara_geom::intersect::{
-    gamma, intersect_triangle, lower_distance, WatertightRay, ROBUST_FAR_SCALE,
-};
+use sahara_geom::intersect::{far_factors, intersect_triangle, lower_distance, WatertightRay};
 use sahara_geom::Ray;
 use std::mem::MaybeUninit;
-
-/// The factor that makes a *negative* far slab distance conservative: `1 - 2γ(3)` (only rays
-/// with `tmin < 0` can use boxes behind their origin).
-pub(crate) const ROBUST_NEG_FAR_SCALE: f32 = 1.0 - 2.0 * gamma(3);
 
 /// Widens a culling distance by 2^-16 of its magnitude, so that a box whose computed entry
 /// distance rounds just above the distance of a triangle it holds (a tie at a vertex on the
@@ -26,6 +20,10 @@ pub(crate) fn widen(t: f32) -> f32 {
 pub(crate) struct RayData {
     pub(crate) origin: [f32; 3],
     pub(crate) inv: [f32; 3],
+    /// The reciprocal direction scaled for far planes, for positive and for negative far
+    /// distances ([`far_factors`]).
+    pub(crate) inv_far: [f32; 3],
+    pub(crate) inv_far_neg: [f32; 3],
     /// The ray's interval, for triangles.
     pub(crate) tmin: f32,
     pub(crate) tmax: f32,
@@ -44,6 +42,7 @@ impl RayData {
     #[inline(always)]
     pub(crate) fn new(ray: &Ray) -> Self {
         let inv = ray.inv_direction.to_array();
+        let (far_pos, far_neg) = far_factors(ray.inv_direction);
         let mut near_row = [0; 3];
         let mut far_row = [0; 3];
         for a in 0..3 {
@@ -54,6 +53,8 @@ impl RayData {
         Self {
             origin: ray.origin.to_array(),
             inv,
+            inv_far: far_pos.to_array(),
+            inv_far_neg: far_neg.to_array(),
             tmin: ray.tmin,
             tmax: ray.tmax,
             box_tmin: lower_distance(ray.tmin),
@@ -79,23 +80,22 @@ impl RayData {
 
     /// The robust slab test of one box given as `[min_x, max_x, min_y, max_y, min_z, max_z]`,
     /// against `[box_tmin, tfar]`: the scalar definition every SIMD box test reproduces lane
-    /// by lane. Returns the entry distance. `NEG` (rays with `tmin < 0`) also makes negative
-    /// far distances conservative: `max(tf * (1 + 2γ(3)), tf * (1 - 2γ(3)))`, which is
-    /// `tf * (1 + 2γ(3))` for `tf >= 0`.
+    /// by lane, and the operations of [`intersect_aabb`](sahara_geom::intersect::intersect_aabb).
+    /// Returns the entry distance. `NEG` (rays with `tmin < 0`) also makes negative far
+    /// distances conservative: `maxps(d · inv_far, d · inv_far_neg)`.
     #[inline(always)]
     pub(crate) fn slab<const NEG: bool>(&self, b: [f32; 6], tfar: f32) -> Option<f32> {
         let mut near = self.box_tmin;
         let mut far = tfar;
         for a in 0..3 {
             let tn = (b[self.near_row[a]] - self.origin[a]) * self.inv[a];
-            let tf = (b[self.far_row[a]] - self.origin[a]) * self.inv[a];
-            let mut tf_pos = tf * ROBUST_FAR_SCALE;
+            let d = b[self.far_row[a]] - self.origin[a];
+            let mut tf = d * self.inv_far[a];
             if NEG {
-                // `maxps(tf_pos, tf_neg)`.
-                let tf_neg = tf * ROBUST_NEG_FAR_SCALE;
-                tf_pos = if tf_pos > tf_neg { tf_pos } else { tf_neg };
+                // `maxps(tf, tf_neg)`.
+                let tf_neg = d * self.inv_far_neg[a];
+                tf = if tf > tf_neg { tf } else { tf_neg };
             }
-            let tf = tf_pos;
             // `maxps(tn, near)` / `minps(tf, far)`: a NaN slab distance is ignored.
             near = if tn > near { tn } else { near };
             far = if tf < far { tf } else { far };
@@ -381,6 +381,121 @@ fn enters_root<const W: usize>(bvh: &WideBvh<W>, ray: &Ray, rd: &RayData, tfar: 
     .is_some()
 }
 
+/// Pushes the children of `node` in `mask` (their entry distances in `dist`) so that they are
+/// popped near to far, and returns the nearest one, which is visited next (not pushed); `None`
+/// for an empty mask.
+#[inline(always)]
+fn descend_closest<const W: usize, St: Stack>(
+    node: &WideNode<W>,
+    mut mask: u32,
+    dist: &[f32; W],
+    stack: &mut St,
+) -> Option<u32> {
+    if mask == 0 {
+        return None;
+    }
+    let i0 = lane::<W>(mask);
+    mask &= mask - 1;
+    if mask == 0 {
+        return Some(node.children[i0]);
+    }
+    let i1 = lane::<W>(mask);
+    mask &= mask - 1;
+    let e0 = Entry {
+        child: node.children[i0],
+        dist: dist[i0],
+    };
+    let e1 = Entry {
+        child: node.children[i1],
+        dist: dist[i1],
+    };
+    if mask == 0 {
+        let (near, far) = if e1.dist < e0.dist {
+            (e1, e0)
+        } else {
+            (e0, e1)
+        };
+        stack.push(far);
+        return Some(near.child);
+    }
+    stack.push(e0);
+    stack.push(e1);
+    let mut n = 2;
+    while mask != 0 {
+        let i = lane::<W>(mask);
+        mask &= mask - 1;
+        stack.push(Entry {
+            child: node.children[i],
+            dist: dist[i],
+        });
+        n += 1;
+    }
+    sort_far_to_near(stack.top_mut(n));
+    stack.pop().map(|e| e.child)
+}
+
+/// Pushes the children of `node` in `mask` but the first, which is returned (any-hit
+/// traversal: no order).
+#[inline(always)]
+fn descend_any<const W: usize, St: Stack>(
+    node: &WideNode<W>,
+    mut mask: u32,
+    stack: &mut St,
+) -> Option<u32> {
+    if mask == 0 {
+        return None;
+    }
+    let i = lane::<W>(mask);
+    mask &= mask - 1;
+    while mask != 0 {
+        let j = lane::<W>(mask);
+        mask &= mask - 1;
+        stack.push(Entry {
+            child: node.children[j],
+            dist: 0.0,
+        });
+    }
+    Some(node.children[i])
+}
+
+/// The first step of a traversal: the test of the root node's children (or, for a tree that
+/// is a single leaf, of the root box). Returns the node to visit next (children to visit later
+/// are pushed), or `None` when the ray misses the scene. It runs before the watertight
+/// constants are computed ([`RayData::finish`]), which rays that miss the scene never need.
+///
+/// # Safety
+/// As for [`closest_hit`].
+#[inline(always)]
+unsafe fn enter<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack, const NEG: bool>(
+    bvh: &WideBvh<W>,
+    ray: &Ray,
+    rd: &RayData,
+    tfar: f32,
+    closest: bool,
+    stats: &mut S,
+    stack: &mut St,
+) -> Option<u32> {
+    let root = bvh.root;
+    if root & LEAF_BIT != 0 {
+        return enters_root(bvh, ray, rd, tfar).then_some(root);
+    }
+    stats.inner();
+    debug_assert!((root as usize) < bvh.nodes.len());
+    // SAFETY: inner references are built in bounds of `nodes`.
+    let node = unsafe { bvh.nodes.get_unchecked(root as usize) };
+    let mut dist = [0.0f32; W];
+    // SAFETY: forwarded from the caller; the box tests need only the box constants of `rd`.
+    let mask = unsafe {
+        let kr = K::prepare(rd);
+        K::intersect_node::<NEG>(node, &kr, rd, tfar, &mut dist) & node.valid
+    };
+    if closest {
+        descend_closest(node, mask, &dist, stack)
+    } else {
+        descend_any(node, mask, stack)
+    }
+}
+
 /// Closest-hit traversal.
 ///
 /// # Safety
@@ -405,13 +520,15 @@ pub(crate) unsafe fn closest_hit<
     let mut rd = RayData::new(ray);
     // Culling distance: the nearest hit so far (or tmax), widened.
     let mut tfar = widen(rd.tmax);
-    if !enters_root(bvh, ray, &rd, tfar) {
+    // SAFETY: forwarded from the caller.
+    let Some(mut cur) =
+        (unsafe { enter::<K, W, S, St, NEG>(bvh, ray, &rd, tfar, true, stats, stack) })
+    else {
         return best;
-    }
+    };
     rd.finish(ray);
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
-    let mut cur = bvh.root;
     let mut dist = [0.0f32; W];
     loop {
         if cur & LEAF_BIT != 0 {
@@ -425,49 +542,10 @@ pub(crate) unsafe fn closest_hit<
             // SAFETY: inner references are built in bounds of `nodes`.
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
-            let mut mask =
+            let mask =
                 unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
-            if mask != 0 {
-                let i0 = lane::<W>(mask);
-                mask &= mask - 1;
-                if mask == 0 {
-                    cur = node.children[i0];
-                    continue;
-                }
-                let i1 = lane::<W>(mask);
-                mask &= mask - 1;
-                let e0 = Entry {
-                    child: node.children[i0],
-                    dist: dist[i0],
-                };
-                let e1 = Entry {
-                    child: node.children[i1],
-                    dist: dist[i1],
-                };
-                if mask == 0 {
-                    let (near, far) = if e1.dist < e0.dist {
-                        (e1, e0)
-                    } else {
-                        (e0, e1)
-                    };
-                    stack.push(far);
-                    cur = near.child;
-                    continue;
-                }
-                stack.push(e0);
-                stack.push(e1);
-                let mut n = 2;
-                while mask != 0 {
-                    let i = lane::<W>(mask);
-                    mask &= mask - 1;
-                    stack.push(Entry {
-                        child: node.children[i],
-                        dist: dist[i],
-                    });
-                    n += 1;
-                }
-                sort_far_to_near(stack.top_mut(n));
-                cur = stack.pop().map_or(NO_ROOT, |e| e.child);
+            if let Some(next) = descend_closest(node, mask, &dist, stack) {
+                cur = next;
                 continue;
             }
         }
@@ -508,14 +586,16 @@ pub(crate) unsafe fn any_hit<
     }
     let mut rd = RayData::new(ray);
     let tfar = widen(rd.tmax);
-    if !enters_root(bvh, ray, &rd, tfar) {
+    // SAFETY: forwarded from the caller.
+    let Some(mut cur) =
+        (unsafe { enter::<K, W, S, St, NEG>(bvh, ray, &rd, tfar, false, stats, stack) })
+    else {
         return false;
-    }
+    };
     rd.finish(ray);
     // SAFETY: forwarded from the caller.
     let kr = unsafe { K::prepare(&rd) };
     let mut dist = [0.0f32; W];
-    let mut cur = bvh.root;
     loop {
         if cur & LEAF_BIT != 0 {
             stats.leaf();
@@ -544,20 +624,10 @@ pub(crate) unsafe fn any_hit<
             // SAFETY: inner references are built in bounds of `nodes`.
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
-            let mut mask =
+            let mask =
                 unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
-            if mask != 0 {
-                let i = lane::<W>(mask);
-                mask &= mask - 1;
-                while mask != 0 {
-                    let j = lane::<W>(mask);
-                    mask &= mask - 1;
-                    stack.push(Entry {
-                        child: node.children[j],
-                        dist: 0.0,
-                    });
-                }
-                cur = node.children[i];
+            if let Some(next) = descend_any(node, mask, stack) {
+                cur = next;
                 continue;
             }
         }

@@ -26,9 +26,9 @@
 //!
 //! **Exactness.** Every backend returns bit-identical results:
 //!
-//! * the box test is the robust slab test of [`intersect_aabb`] (far distances scaled by
-//!   [`ROBUST_FAR_SCALE`], NaN slab distances ignored), evaluated with the same operations in
-//!   the same order; the near and far planes are picked by the sign of the reciprocal direction,
+//! * the box test is the robust slab test of [`intersect_aabb`] (far planes use the reciprocal
+//!   direction scaled by [`ROBUST_FAR_SCALE`], precomputed per ray with [`far_factors`]; NaN
+//!   slab distances ignored), evaluated with the same operations in the same order; the near and far planes are picked by the sign of the reciprocal direction,
 //!   which gives the same distances as `min`/`max` of the two slab distances but keeps a NaN
 //!   slab distance (origin on a slab plane, zero direction component) out of both the near and
 //!   the far distance, so such rays are never culled;
@@ -58,6 +58,7 @@
 //! [`intersect_triangle`]: sahara_geom::intersect::intersect_triangle
 //! [`accept_hit`]: sahara_geom::intersect::accept_hit
 //! [`ROBUST_FAR_SCALE`]: sahara_geom::intersect::ROBUST_FAR_SCALE
+//! [`far_factors`]: sahara_geom::intersect::far_factors
 //!
 //! ```
 //! use sahara_bvh::{Bvh, Node};

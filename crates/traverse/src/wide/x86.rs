@@ -7,12 +7,9 @@
 //! operations in the same order (Rust never contracts a multiply and an add into an FMA), and
 //! reports lanes with an edge function exactly zero for the exact scalar fallback.
 
-use super::kernel::{
-    self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK, ROBUST_NEG_FAR_SCALE,
-};
+use super::kernel::{self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK};
 use super::{TriPacket, WideBvh, WideNode};
 use crate::{Hit, TraversalStats};
-use sahara_geom::intersect::ROBUST_FAR_SCALE;
 use sahara_geom::Ray;
 use std::arch::x86_64::*;
 
@@ -21,6 +18,9 @@ use std::arch::x86_64::*;
 pub(crate) struct SseRay {
     origin: [__m128; 3],
     inv: [__m128; 3],
+    /// The reciprocal direction scaled for far planes (positive and negative distances).
+    inv_far: [__m128; 3],
+    inv_far_neg: [__m128; 3],
     box_tmin: __m128,
     tmin: __m128,
     tmax: __m128,
@@ -48,6 +48,8 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
                 _mm_set1_ps(rd.inv[1]),
                 _mm_set1_ps(rd.inv[2]),
             ],
+            inv_far: rd.inv_far.map(|x| _mm_set1_ps(x)),
+            inv_far_neg: rd.inv_far_neg.map(|x| _mm_set1_ps(x)),
             box_tmin: _mm_set1_ps(rd.box_tmin),
             tmin: _mm_set1_ps(rd.tmin),
             tmax: _mm_set1_ps(rd.tmax),
@@ -82,17 +84,16 @@ unsafe fn node4<const W: usize, const NEG: bool>(
     // `dist` holds `W` floats.
     unsafe {
         let base = node.bounds.as_ptr().cast::<f32>().add(off);
-        let scale = _mm_set1_ps(ROBUST_FAR_SCALE);
         let mut near = r.box_tmin;
         let mut far = tfar;
         for a in 0..3 {
             let pn = _mm_load_ps(base.add(r.near_off[a]));
             let pf = _mm_load_ps(base.add(r.far_off[a]));
             let tn = _mm_mul_ps(_mm_sub_ps(pn, r.origin[a]), r.inv[a]);
-            let tf0 = _mm_mul_ps(_mm_sub_ps(pf, r.origin[a]), r.inv[a]);
-            let mut tf = _mm_mul_ps(tf0, scale);
+            let d = _mm_sub_ps(pf, r.origin[a]);
+            let mut tf = _mm_mul_ps(d, r.inv_far[a]);
             if NEG {
-                tf = _mm_max_ps(tf, _mm_mul_ps(tf0, _mm_set1_ps(ROBUST_NEG_FAR_SCALE)));
+                tf = _mm_max_ps(tf, _mm_mul_ps(d, r.inv_far_neg[a]));
             }
             near = _mm_max_ps(tn, near);
             far = _mm_min_ps(tf, far);
@@ -219,7 +220,7 @@ unsafe fn tri4_range(r: &SseRay, t_scaled: __m128, det: __m128, ok: __m128) -> [
 /// [`accept_hit`]: sahara_geom::intersect::accept_hit
 /// [`intersect_aabb`]: sahara_geom::intersect::intersect_aabb
 #[inline(always)]
-unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayData, t: __m128) -> __m128 {
+unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, t: __m128) -> __m128 {
     // SAFETY (whole function): the packet is 16-byte aligned and its vertex rows hold 4
     // floats each.
     unsafe {
@@ -229,23 +230,21 @@ unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayData, t: _
         // `cull_distance(t)`: t + |t| · 2^-16.
         let mut far = _mm_add_ps(t, _mm_mul_ps(at, _mm_set1_ps(1.0 / 65536.0)));
         let mut near = r.box_tmin;
-        let scale = _mm_set1_ps(ROBUST_FAR_SCALE);
         for a in 0..3 {
             let v0 = _mm_load_ps(base.add(a * 4));
             let v1 = _mm_load_ps(base.add(12 + a * 4));
             let v2 = _mm_load_ps(base.add(24 + a * 4));
             let lo = _mm_min_ps(v0, _mm_min_ps(v1, v2));
             let hi = _mm_max_ps(v0, _mm_max_ps(v1, v2));
-            let inv = _mm_set1_ps(rd.w.inv_direction[a]);
             // The near plane is the maximum where the reciprocal direction is negative.
-            let neg = _mm_cmplt_ps(inv, _mm_setzero_ps());
+            let neg = _mm_cmplt_ps(r.inv[a], _mm_setzero_ps());
             let pn = _mm_or_ps(_mm_and_ps(neg, hi), _mm_andnot_ps(neg, lo));
             let pf = _mm_or_ps(_mm_and_ps(neg, lo), _mm_andnot_ps(neg, hi));
-            let tn = _mm_mul_ps(_mm_sub_ps(pn, r.origin[a]), inv);
-            let tf0 = _mm_mul_ps(_mm_sub_ps(pf, r.origin[a]), inv);
-            let mut tf = _mm_mul_ps(tf0, scale);
+            let tn = _mm_mul_ps(_mm_sub_ps(pn, r.origin[a]), r.inv[a]);
+            let d = _mm_sub_ps(pf, r.origin[a]);
+            let mut tf = _mm_mul_ps(d, r.inv_far[a]);
             if NEG {
-                tf = _mm_max_ps(tf, _mm_mul_ps(tf0, _mm_set1_ps(ROBUST_NEG_FAR_SCALE)));
+                tf = _mm_max_ps(tf, _mm_mul_ps(d, r.inv_far_neg[a]));
             }
             near = _mm_max_ps(tn, near);
             far = _mm_min_ps(tf, far);
@@ -258,7 +257,6 @@ unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayData, t: _
 unsafe fn packet_closest<const NEG: bool>(
     p: &TriPacket,
     r: &SseRay,
-    rd: &RayData,
     tfar: f32,
     out: &mut PacketHits,
 ) -> (u32, u32) {
@@ -278,7 +276,7 @@ unsafe fn packet_closest<const NEG: bool>(
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, rd, t))) as u32;
+        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, t))) as u32;
         if hits != 0 {
             _mm_storeu_ps(out.t.as_mut_ptr(), t);
             _mm_storeu_ps(out.u.as_mut_ptr(), _mm_mul_ps(e.v, inv));
@@ -289,7 +287,7 @@ unsafe fn packet_closest<const NEG: bool>(
 }
 
 #[inline(always)]
-unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayData) -> (u32, u32) {
+unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u32) {
     // SAFETY (whole function): SSE2 is part of x86-64.
     unsafe {
         let e = tri4(p, r);
@@ -302,7 +300,7 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay, rd: &RayDa
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, rd, t))) as u32;
+        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, t))) as u32;
         (hits, fallback)
     }
 }
@@ -344,22 +342,22 @@ impl<const W: usize> Kernel<W> for Sse {
     unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        rd: &RayData,
+        _: &RayData,
         tfar: f32,
         out: &mut PacketHits,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest::<NEG>(p, r, rd, tfar, out) }
+        unsafe { packet_closest::<NEG>(p, r, tfar, out) }
     }
 
     #[inline(always)]
     unsafe fn occlude_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        rd: &RayData,
+        _: &RayData,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded::<NEG>(p, r, rd) }
+        unsafe { packet_occluded::<NEG>(p, r) }
     }
 }
 
@@ -395,20 +393,17 @@ impl<const W: usize> Kernel<W> for Avx2 {
         // and rows are 32 bytes); `dist` holds 8 floats.
         unsafe {
             let base = node.bounds.as_ptr().cast::<f32>();
-            let scale = _mm256_set1_ps(ROBUST_FAR_SCALE);
             let mut near = _mm256_set1_ps(rd.box_tmin);
             let mut far = _mm256_set1_ps(tfar);
             for a in 0..3 {
                 let o = _mm256_set1_ps(rd.origin[a]);
-                let inv = _mm256_set1_ps(rd.inv[a]);
                 let pn = _mm256_load_ps(base.add(r.near_off[a]));
                 let pf = _mm256_load_ps(base.add(r.far_off[a]));
-                let tn = _mm256_mul_ps(_mm256_sub_ps(pn, o), inv);
-                let tf0 = _mm256_mul_ps(_mm256_sub_ps(pf, o), inv);
-                let mut tf = _mm256_mul_ps(tf0, scale);
+                let tn = _mm256_mul_ps(_mm256_sub_ps(pn, o), _mm256_set1_ps(rd.inv[a]));
+                let d = _mm256_sub_ps(pf, o);
+                let mut tf = _mm256_mul_ps(d, _mm256_set1_ps(rd.inv_far[a]));
                 if NEG {
-                    tf =
-                        _mm256_max_ps(tf, _mm256_mul_ps(tf0, _mm256_set1_ps(ROBUST_NEG_FAR_SCALE)));
+                    tf = _mm256_max_ps(tf, _mm256_mul_ps(d, _mm256_set1_ps(rd.inv_far_neg[a])));
                 }
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
@@ -424,22 +419,22 @@ impl<const W: usize> Kernel<W> for Avx2 {
     unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        rd: &RayData,
+        _: &RayData,
         tfar: f32,
         out: &mut PacketHits,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest::<NEG>(p, r, rd, tfar, out) }
+        unsafe { packet_closest::<NEG>(p, r, tfar, out) }
     }
 
     #[inline(always)]
     unsafe fn occlude_packet<const NEG: bool>(
         p: &TriPacket,
         r: &SseRay,
-        rd: &RayData,
+        _: &RayData,
     ) -> (u32, u32) {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded::<NEG>(p, r, rd) }
+        unsafe { packet_occluded::<NEG>(p, r) }
     }
 }
 
