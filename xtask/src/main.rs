@@ -36,8 +36,9 @@ enum Cmd {
     /// The numerical-stability suite: every builder and kernel on hard cases (fast subset by
     /// default, `--full` for everything), printed as a table.
     Hardcases(hardcases::Args),
-    /// Every builder on every scene: validate, and traversal against brute force ray by ray
-    /// (the heavy version of the test suite's check; takes minutes).
+    /// Every builder on every scene: validate, and traversal against brute force ray by ray;
+    /// then every wide layout and backend against the scalar reference on primary, diffuse and
+    /// AO rays at 1024×768 (the heavy versions of the test suite's checks; takes minutes).
     Verify,
 }
 
@@ -59,23 +60,38 @@ fn main() {
     }
 }
 
-/// Runs the builder/traversal equality suite with every builder on every scene.
+/// Runs the equality suites with `SAHARA_VERIFY_ALL=1`: `builders` of sahara-traverse (every
+/// builder on every scene against brute force) and `layouts_shared_scenes` of sahara-trace
+/// (every layout and backend against the scalar reference, ray by ray, at 1024×768).
 fn verify() -> anyhow::Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = std::process::Command::new(cargo)
-        .args([
-            "test",
-            "--release",
-            "-p",
-            "sahara-traverse",
-            "--test",
-            "builders",
-            "--",
-            "--nocapture",
-            "--test-threads=1",
-        ])
-        .env("SAHARA_VERIFY_ALL", "1")
-        .status()?;
-    anyhow::ensure!(status.success(), "verification failed");
+    let mut failed = Vec::new();
+    for (package, test) in [
+        ("sahara-traverse", "builders"),
+        ("sahara-trace", "layouts_shared_scenes"),
+    ] {
+        let status = std::process::Command::new(&cargo)
+            .args([
+                "test",
+                "--release",
+                "-p",
+                package,
+                "--test",
+                test,
+                "--",
+                "--nocapture",
+                "--test-threads=1",
+            ])
+            .env("SAHARA_VERIFY_ALL", "1")
+            .status()?;
+        if !status.success() {
+            failed.push(format!("{package} --test {test}"));
+        }
+    }
+    anyhow::ensure!(
+        failed.is_empty(),
+        "verification failed: {}",
+        failed.join(", ")
+    );
     Ok(())
 }

@@ -179,7 +179,9 @@ fn every_builder_on_every_shared_scene() {
         .entries()
         .iter()
         .filter(|e| e.path().is_some())
-        // The GLB holds the same geometry as its OBJ (tests/loaders of sahara-scene check it).
+        // The GLB holds its OBJ's model (same triangle count, bounds equal to 1e-3 of the
+        // diagonal: sahara-scene's tests/shared_scenes.rs; vertices differ by the exporter's
+        // rounding, so hit counts differ slightly): checked only by `cargo xtask verify`.
         .filter(|e| verify_all() || !e.name.ends_with("_glb"))
         .collect();
     if files.is_empty() {
