@@ -128,8 +128,8 @@ pub(crate) trait Kernel<const W: usize> {
     unsafe fn prepare(r: &RayData) -> Self::Ray;
 
     /// Tests the `W` child boxes of `node` against `[box_tmin, tfar]` exactly as
-    /// [`RayData::slab`] does; returns the mask of boxes hit (possibly including unused
-    /// slots) and writes the entry distances to `dist`.
+    /// [`RayData::slab`] does; returns the mask of boxes hit (never an unused slot: its box is
+    /// empty) and writes the entry distances to `dist`.
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
@@ -391,6 +391,7 @@ fn descend_closest<const W: usize, St: Stack>(
     dist: &[f32; W],
     stack: &mut St,
 ) -> Option<u32> {
+    debug_assert_eq!(mask & !node.valid, 0, "an unused slot's empty box was hit");
     if mask == 0 {
         return None;
     }
@@ -442,6 +443,7 @@ fn descend_any<const W: usize, St: Stack>(
     mut mask: u32,
     stack: &mut St,
 ) -> Option<u32> {
+    debug_assert_eq!(mask & !node.valid, 0, "an unused slot's empty box was hit");
     if mask == 0 {
         return None;
     }
@@ -487,7 +489,7 @@ unsafe fn enter<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack, cons
     // SAFETY: forwarded from the caller; the box tests need only the box constants of `rd`.
     let mask = unsafe {
         let kr = K::prepare(rd);
-        K::intersect_node::<NEG>(node, &kr, rd, tfar, &mut dist) & node.valid
+        K::intersect_node::<NEG>(node, &kr, rd, tfar, &mut dist)
     };
     if closest {
         descend_closest(node, mask, &dist, stack)
@@ -543,7 +545,7 @@ pub(crate) unsafe fn closest_hit<
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
             let mask =
-                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
+                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
             if let Some(next) = descend_closest(node, mask, &dist, stack) {
                 cur = next;
                 continue;
@@ -625,7 +627,7 @@ pub(crate) unsafe fn any_hit<
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
             let mask =
-                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) } & node.valid;
+                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
             if let Some(next) = descend_any(node, mask, stack) {
                 cur = next;
                 continue;

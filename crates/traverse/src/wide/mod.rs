@@ -120,7 +120,10 @@ pub(crate) fn decode_leaf(child: u32) -> (usize, usize) {
 ///
 /// A child is either an inner node (its index) or a leaf (`1 << 31`, the number of packets
 /// minus one in bits 28–30, the first packet in bits 0–27). Slots whose bit is clear in
-/// `valid` are unused. 64-byte aligned: 128 bytes for `W = 4`, 256 bytes for `W = 8`.
+/// `valid` are unused; they hold an empty box (minimum `+∞`, maximum `-∞`), whose near slab
+/// distance is `+∞` and far slab distance `-∞` on every axis for every valid ray, so the box
+/// tests reject them without a mask. 64-byte aligned: 128 bytes for `W = 4`, 256 bytes for
+/// `W = 8`.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WideNode<const W: usize> {
@@ -131,7 +134,14 @@ pub struct WideNode<const W: usize> {
 
 impl<const W: usize> WideNode<W> {
     pub(crate) const EMPTY: Self = Self {
-        bounds: [[f32::NAN; W]; 6],
+        bounds: [
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+        ],
         children: [u32::MAX; W],
         valid: 0,
     };
