@@ -390,12 +390,30 @@ pub fn run(a: Args) -> Result<()> {
                 );
                 // Passes are interleaved across builders (one warm-up round, then `passes`
                 // timed rounds), so that drift of a shared machine hits every tree alike.
+                // Embree ignores the builders' trees (every tracer of this layout traces the
+                // same Embree scene): it is traced once, and its figures fill every row.
+                let shared = *layout == "embree";
+                let timed = if shared {
+                    &tracers[..tracers.len().min(1)]
+                } else {
+                    &tracers[..]
+                };
                 let timings =
-                    util::with_threads(a.threads, || interleaved_timings(&tracers, set, s.passes))?;
-                for ((b, _), (tracer, timing)) in trees.iter().zip(tracers.iter().zip(timings)) {
-                    let counted = util::with_threads(a.threads, || {
-                        sahara_trace::trace_set_counted(tracer.as_ref(), set)
-                    })?;
+                    util::with_threads(a.threads, || interleaved_timings(timed, set, s.passes))?;
+                let mut shared_counts: Option<
+                    sahara_trace::CountedTrace<sahara_trace::TraceResults>,
+                > = None;
+                for (i, ((b, _), tracer)) in trees.iter().zip(&tracers).enumerate() {
+                    let timing = timings[if shared { 0 } else { i }];
+                    let counted = match &shared_counts {
+                        Some(c) => c.clone(),
+                        None => util::with_threads(a.threads, || {
+                            sahara_trace::trace_set_counted(tracer.as_ref(), set)
+                        })?,
+                    };
+                    if shared && shared_counts.is_none() {
+                        shared_counts = Some(counted.clone());
+                    }
                     let rep = trace_cmd::report(
                         &scene.name,
                         scene.triangles.len(),
