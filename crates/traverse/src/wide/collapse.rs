@@ -2,6 +2,7 @@
 //! and Laine (2017) by dynamic programming over the binary tree ([`Plan`]), then the wide
 //! nodes and the leaf packets are laid out depth first.
 
+use super::memory::HugeSlice;
 use super::{
     encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
     MAX_LEAF_PACKETS, NO_ROOT,
@@ -199,8 +200,8 @@ pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: &[Triangle]) -> WideBvh<
     let backend = Backend::best();
     if bvh.nodes.is_empty() {
         return WideBvh {
-            nodes: Vec::new(),
-            packets: Vec::new(),
+            nodes: HugeSlice::empty(),
+            packets: HugeSlice::empty(),
             root: NO_ROOT,
             root_bounds: Aabb::EMPTY,
             max_stack: 1,
@@ -236,8 +237,8 @@ pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: &[Triangle]) -> WideBvh<
     );
     let max_stack = stack_bound(&c.nodes, root);
     WideBvh {
-        nodes: c.nodes,
-        packets: c.packets,
+        nodes: c.nodes.into(),
+        packets: c.packets.into(),
         root,
         root_bounds: bvh.nodes[0].bounds(),
         max_stack,

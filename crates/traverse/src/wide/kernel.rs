@@ -544,8 +544,7 @@ pub(crate) unsafe fn closest_hit<
             // SAFETY: inner references are built in bounds of `nodes`.
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
-            let mask =
-                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
+            let mask = unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
             if let Some(next) = descend_closest(node, mask, &dist, stack) {
                 cur = next;
                 continue;
@@ -626,8 +625,7 @@ pub(crate) unsafe fn any_hit<
             // SAFETY: inner references are built in bounds of `nodes`.
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
-            let mask =
-                unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
+            let mask = unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
             if let Some(next) = descend_any(node, mask, stack) {
                 cur = next;
                 continue;

@@ -77,6 +77,7 @@
 
 mod collapse;
 mod kernel;
+mod memory;
 mod portable;
 #[cfg(target_arch = "x86_64")]
 mod x86;
@@ -196,8 +197,8 @@ impl TriPacket {
 /// scalar reference kernels (see the [module documentation](self)).
 #[derive(Clone, Debug)]
 pub struct WideBvh<const W: usize> {
-    pub(crate) nodes: Vec<WideNode<W>>,
-    pub(crate) packets: Vec<TriPacket>,
+    pub(crate) nodes: memory::HugeSlice<WideNode<W>>,
+    pub(crate) packets: memory::HugeSlice<TriPacket>,
     /// The root: a node index, a leaf reference, or `u32::MAX` for an empty tree.
     pub(crate) root: u32,
     pub(crate) root_bounds: Aabb,

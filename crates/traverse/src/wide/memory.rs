@@ -1,0 +1,171 @@
+//! Storage for the node and packet arrays of a wide BVH: large arrays are aligned to 2 MiB and,
+//! on Linux, advised for transparent huge pages before they are first written.
+//!
+//! Incoherent rays touch the tree's memory at random; with 4 KiB pages a tree of tens of MiB
+//! spans thousands of pages, more than the CPU's TLBs hold, so traversal pays a page walk on
+//! many node and packet loads. With 2 MiB pages a few dozen entries cover it. The kernel
+//! grants huge pages only to 2 MiB-aligned ranges, and on systems whose transparent huge page
+//! policy is `madvise` (a common default) only to ranges advised with `MADV_HUGEPAGE` — Embree's
+//! allocator does the same for its BVH. Where the advice is refused (another OS, THP
+//! disabled), the memory is ordinary memory: only speed depends on it, never results.
+
+use std::alloc::{self, Layout};
+use std::fmt;
+use std::ops::Deref;
+use std::ptr::NonNull;
+
+/// Arrays at least this large are aligned to [`HUGE_PAGE`] and advised (smaller ones would
+/// waste most of a huge page).
+const HUGE_THRESHOLD: usize = 1 << 20;
+
+/// The huge page size of x86-64 and of most aarch64 Linux kernels.
+const HUGE_PAGE: usize = 2 << 20;
+
+/// A fixed-length array of `Copy` values, allocated once from a slice (see the
+/// [module documentation](self)). It dereferences to a slice.
+pub(crate) struct HugeSlice<T: Copy> {
+    ptr: NonNull<T>,
+    len: usize,
+    /// The allocation's layout (size 0: nothing allocated).
+    layout: Layout,
+}
+
+// SAFETY: `HugeSlice<T>` owns its elements like a `Box<[T]>`.
+unsafe impl<T: Copy + Send> Send for HugeSlice<T> {}
+// SAFETY: shared access only hands out `&[T]`.
+unsafe impl<T: Copy + Sync> Sync for HugeSlice<T> {}
+
+impl<T: Copy> HugeSlice<T> {
+    /// An empty array.
+    pub(crate) fn empty() -> Self {
+        Self {
+            ptr: NonNull::dangling(),
+            len: 0,
+            layout: Layout::new::<()>(),
+        }
+    }
+
+    /// A copy of `items`.
+    ///
+    /// # Panics
+    /// If the allocation fails (as `Vec` does) or its size overflows.
+    pub(crate) fn from_slice(items: &[T]) -> Self {
+        let bytes = std::mem::size_of_val(items);
+        if bytes == 0 {
+            return Self::empty();
+        }
+        let huge = bytes >= HUGE_THRESHOLD;
+        let (size, align) = if huge {
+            (bytes.next_multiple_of(HUGE_PAGE), HUGE_PAGE)
+        } else {
+            (bytes, std::mem::align_of::<T>())
+        };
+        let layout = Layout::from_size_align(size, align.max(std::mem::align_of::<T>()))
+            .expect("array too large");
+        // SAFETY: `layout` has a non-zero size.
+        let raw = unsafe { alloc::alloc(layout) };
+        let Some(ptr) = NonNull::new(raw.cast::<T>()) else {
+            alloc::handle_alloc_error(layout)
+        };
+        if huge {
+            advise_huge_pages(raw, size);
+        }
+        // SAFETY: the allocation holds `items.len()` values of `T` (size and alignment above),
+        // does not overlap `items`, and `T: Copy`.
+        unsafe { std::ptr::copy_nonoverlapping(items.as_ptr(), ptr.as_ptr(), items.len()) };
+        Self {
+            ptr,
+            len: items.len(),
+            layout,
+        }
+    }
+
+    /// True when the array lies in memory aligned to a huge page (arrays of at least 1 MiB).
+    #[cfg(test)]
+    pub(crate) fn is_huge_aligned(&self) -> bool {
+        self.layout.align() == HUGE_PAGE
+    }
+}
+
+/// Asks the kernel to back `[ptr, ptr + len)` with transparent huge pages when it is first
+/// touched. Best effort: an error (no THP support, another policy) is ignored.
+#[cfg(target_os = "linux")]
+fn advise_huge_pages(ptr: *mut u8, len: usize) {
+    // SAFETY: the range is one live allocation of ours; `madvise` with `MADV_HUGEPAGE` only
+    // changes how the kernel backs it, not its contents or validity.
+    unsafe {
+        libc::madvise(ptr.cast(), len, libc::MADV_HUGEPAGE);
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn advise_huge_pages(_: *mut u8, _: usize) {}
+
+impl<T: Copy> Drop for HugeSlice<T> {
+    fn drop(&mut self) {
+        if self.layout.size() != 0 {
+            // SAFETY: allocated in `from_slice` with this layout.
+            unsafe { alloc::dealloc(self.ptr.as_ptr().cast(), self.layout) };
+        }
+    }
+}
+
+impl<T: Copy> Deref for HugeSlice<T> {
+    type Target = [T];
+
+    #[inline(always)]
+    fn deref(&self) -> &[T] {
+        // SAFETY: `ptr` holds `len` initialised values (or is dangling with `len == 0`).
+        unsafe { std::slice::from_raw_parts(self.ptr.as_ptr(), self.len) }
+    }
+}
+
+impl<'a, T: Copy> IntoIterator for &'a HugeSlice<T> {
+    type Item = &'a T;
+    type IntoIter = std::slice::Iter<'a, T>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl<T: Copy> Clone for HugeSlice<T> {
+    fn clone(&self) -> Self {
+        Self::from_slice(self)
+    }
+}
+
+impl<T: Copy + fmt::Debug> fmt::Debug for HugeSlice<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Debug::fmt(&**self, f)
+    }
+}
+
+impl<T: Copy> From<Vec<T>> for HugeSlice<T> {
+    fn from(v: Vec<T>) -> Self {
+        Self::from_slice(&v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_large_and_empty_arrays_round_trip() {
+        let e = HugeSlice::<u64>::from_slice(&[]);
+        assert!(e.is_empty() && !e.is_huge_aligned());
+        let small: Vec<u32> = (0..1000).collect();
+        let s = HugeSlice::from_slice(&small);
+        assert_eq!(&*s, &small[..]);
+        assert!(!s.is_huge_aligned());
+        let large: Vec<[f32; 4]> = (0..100_000).map(|i| [i as f32; 4]).collect();
+        let l = HugeSlice::from(large.clone());
+        assert_eq!(&*l, &large[..]);
+        assert!(l.is_huge_aligned());
+        assert_eq!(l.as_ptr() as usize % HUGE_PAGE, 0);
+        let c = l.clone();
+        drop(l);
+        assert_eq!(&*c, &large[..]);
+    }
+}
