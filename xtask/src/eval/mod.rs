@@ -3,7 +3,8 @@
 //!
 //! For each scene every builder builds its tree (timed, with SAH and EPO); the ray sets are
 //! generated once per scene (they do not depend on the tree: hits are deterministic) and each
-//! tree is traced with each layout (timed after a warm-up, and counted). Results are reported
+//! tree is traced with each layout (timed after a warm-up, the passes of every layout and tree
+//! interleaved, and counted). Results are reported
 //! relative to the full-sweep SAH tree (and to SBVH for spatial-split builders), in measured
 //! speed and in work per ray; the SAH-EPO predictors are fitted to the measurements.
 
@@ -378,33 +379,54 @@ pub fn run(a: Args) -> Result<()> {
         let first_row = traces.len();
         // Per-pixel primary-ray work of each tree, for heat maps on one colour scale.
         let mut heat: Vec<(String, sahara_trace::PixelWork)> = Vec::new();
-        for layout in &s.layouts {
-            let tracers: Vec<Box<dyn sahara_trace::Tracer + '_>> = trees
+        // Every tracer of the scene: one per layout and tree.
+        let tracers: Vec<Vec<Box<dyn sahara_trace::Tracer + '_>>> = s
+            .layouts
+            .iter()
+            .map(|layout| {
+                trees
+                    .iter()
+                    .map(|(_, bvh)| trace_cmd::make_tracer(layout, bvh, &scene.triangles))
+                    .collect::<Result<_>>()
+            })
+            .collect::<Result<_>>()?;
+        // Embree ignores the builders' trees (every tracer of that layout traces the same
+        // Embree scene): it is traced once, and its figures fill every builder's row.
+        let timed_trees = |layout: &str| if layout == "embree" { 1 } else { trees.len() };
+        // Timings per ray set, layout and tree. The passes of every layout and tree are
+        // interleaved (one warm-up round, then `passes` timed rounds), so that the drift of a
+        // shared machine hits every engine alike and their ratios come from the same rounds.
+        let mut timings: Vec<Vec<Vec<sahara_trace::Timing>>> = Vec::new();
+        for set in &sets {
+            status(&bar, format!("{} / trace {}", scene.name, set.kind.name()));
+            let engines: Vec<&dyn sahara_trace::Tracer> = s
+                .layouts
                 .iter()
-                .map(|(_, bvh)| trace_cmd::make_tracer(layout, bvh, &scene.triangles))
-                .collect::<Result<_>>()?;
-            for set in &sets {
+                .zip(&tracers)
+                .flat_map(|(layout, ts)| ts[..timed_trees(layout)].iter().map(|t| t.as_ref()))
+                .collect();
+            let mut flat =
+                util::with_threads(a.threads, || interleaved_timings(&engines, set, s.passes))?
+                    .into_iter();
+            timings.push(
+                s.layouts
+                    .iter()
+                    .map(|layout| flat.by_ref().take(timed_trees(layout)).collect())
+                    .collect(),
+            );
+        }
+        for (li, layout) in s.layouts.iter().enumerate() {
+            for (si, set) in sets.iter().enumerate() {
                 status(
                     &bar,
-                    format!("{} / trace {layout} {}", scene.name, set.kind.name()),
+                    format!("{} / count {layout} {}", scene.name, set.kind.name()),
                 );
-                // Passes are interleaved across builders (one warm-up round, then `passes`
-                // timed rounds), so that drift of a shared machine hits every tree alike.
-                // Embree ignores the builders' trees (every tracer of this layout traces the
-                // same Embree scene): it is traced once, and its figures fill every row.
-                let shared = *layout == "embree";
-                let timed = if shared {
-                    &tracers[..tracers.len().min(1)]
-                } else {
-                    &tracers[..]
-                };
-                let timings =
-                    util::with_threads(a.threads, || interleaved_timings(timed, set, s.passes))?;
+                let shared = timed_trees(layout) == 1 && trees.len() > 1;
                 let mut shared_counts: Option<
                     sahara_trace::CountedTrace<sahara_trace::TraceResults>,
                 > = None;
-                for (i, ((b, _), tracer)) in trees.iter().zip(&tracers).enumerate() {
-                    let timing = timings[if shared { 0 } else { i }];
+                for (ti, ((b, _), tracer)) in trees.iter().zip(&tracers[li]).enumerate() {
+                    let timing = timings[si][li][if shared { 0 } else { ti }];
                     let counted = match &shared_counts {
                         Some(c) => c.clone(),
                         None => util::with_threads(a.threads, || {
@@ -450,6 +472,7 @@ pub fn run(a: Args) -> Result<()> {
                 }
             }
         }
+        drop(tracers);
         write_heat_maps(&out, &scene.name, &heat, &mut info)?;
         relate(&mut traces[first_row..]);
         trees_for_predictors.push(predict::SceneTrees {
@@ -525,7 +548,7 @@ fn status(bar: &ProgressBar, msg: String) {
 /// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds, each round
 /// tracing the whole set once with every tracer in turn.
 fn interleaved_timings(
-    tracers: &[Box<dyn sahara_trace::Tracer + '_>],
+    tracers: &[&dyn sahara_trace::Tracer],
     set: &RaySet,
     passes: usize,
 ) -> Vec<sahara_trace::Timing> {
@@ -533,7 +556,7 @@ fn interleaved_timings(
     for round in 0..=passes.max(1) {
         for (i, t) in tracers.iter().enumerate() {
             let t0 = std::time::Instant::now();
-            std::hint::black_box(sahara_trace::trace_set(t.as_ref(), set));
+            std::hint::black_box(sahara_trace::trace_set(*t, set));
             if round > 0 {
                 samples[i].push(t0.elapsed().as_secs_f64());
             }
