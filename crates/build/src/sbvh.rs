@@ -988,6 +988,37 @@ pub(crate) fn decide(
     depth: usize,
     budget: usize,
 ) -> Decision {
+    decide_with(
+        ctx,
+        refs,
+        bounds,
+        area,
+        depth,
+        budget,
+        |refs, area| object_search(ctx, refs, area, 1),
+        |refs, bounds, area, budget| {
+            spatial_search(ctx, refs, bounds, area, 1, budget)
+                .first()
+                .copied()
+        },
+    )
+}
+
+/// The SBVH rule with the given searches (`object(refs, area)`: the best object split first
+/// in its candidates; `spatial(refs, bounds, area, budget)`: the best spatial split, if any),
+/// which lets cost-only temporaries use cheaper searches under the same rule (see
+/// `tsah_spatial`). `ctx` gives the configuration, the cost model and the clipping.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn decide_with(
+    ctx: &Ctx,
+    refs: &[Ref],
+    bounds: &Aabb,
+    area: f64,
+    depth: usize,
+    budget: usize,
+    object: impl FnOnce(&[Ref], f64) -> ObjectSearch,
+    spatial: impl FnOnce(&[Ref], &Aabb, f64, usize) -> Option<SpatialCand>,
+) -> Decision {
     let n = refs.len();
     if n == 1 {
         return Decision::Leaf;
@@ -1000,17 +1031,14 @@ pub(crate) fn decide(
         let (l, r) = median_split(refs);
         return Decision::Split(l, r);
     }
-    let search = object_search(ctx, refs, area, 1);
-    let object = search.cands[0];
-    let spatial = if spatial_allowed(ctx, &object, depth, budget) {
-        spatial_search(ctx, refs, bounds, area, 1, budget)
-            .first()
-            .copied()
-            .filter(|s| s.cost < object.cost)
+    let search = object(refs, area);
+    let best_object = search.cands[0];
+    let spatial = if spatial_allowed(ctx, &best_object, depth, budget) {
+        spatial(refs, bounds, area, budget).filter(|s| s.cost < best_object.cost)
     } else {
         None
     };
-    let best = spatial.map_or(object.cost, |s| s.cost);
+    let best = spatial.map_or(best_object.cost, |s| s.cost);
     if can_leaf && ctx.cost.leaf_cost(n) <= best {
         return Decision::Leaf;
     }
@@ -1019,7 +1047,7 @@ pub(crate) fn decide(
             return Decision::Split(l, r);
         }
     }
-    let (l, r) = apply_object(refs, &search, &object);
+    let (l, r) = apply_object(refs, &search, &best_object);
     Decision::Split(l, r)
 }
 

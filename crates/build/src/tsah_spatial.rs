@@ -475,7 +475,8 @@ fn estimated_rec(ctx: &Ctx, refs: Vec<Ref>, depth: usize, budget: usize) -> (f64
     }
 }
 
-/// SBVH's rule ([`sbvh::decide`]) with the estimated spatial search.
+/// SBVH's rule ([`sbvh::decide_with`]) with the sweep object search in scratch buffers and
+/// the estimated spatial search, over at most `bins_per_ref` spatial bins per reference.
 fn estimated_decide(
     ctx: &Ctx,
     refs: &[Ref],
@@ -492,42 +493,23 @@ fn estimated_decide(
     else {
         unreachable!("estimated temporaries only")
     };
-    let n = refs.len();
     let mut cfg = ctx.temporary.cfg;
     cfg.spatial_bins = cfg
         .spatial_bins
-        .min(n.saturating_mul(bins_per_ref).max(min_bins));
+        .min(refs.len().saturating_mul(bins_per_ref).max(min_bins));
     let t = &ctx.temporary.with_config(cfg);
-    if n == 1 {
-        return Decision::Leaf;
-    }
-    let can_leaf = n <= cfg.max_leaf_size;
-    if depth >= cfg.fallback_depth {
-        if can_leaf {
-            return Decision::Leaf;
-        }
-        let (l, r) = sbvh::median_split(refs);
-        return Decision::Split(l, r);
-    }
-    let search = sweep_object_search(t, refs, area);
-    let object = search.cands[0];
-    let spatial = if spatial_allowed(t, &object, depth, budget) {
-        estimated_spatial_search(t, refs, bounds, area, budget, refine)
-            .filter(|s| s.cost < object.cost)
-    } else {
-        None
-    };
-    let best = spatial.map_or(object.cost, |s| s.cost);
-    if can_leaf && t.cost.leaf_cost(n) <= best {
-        return Decision::Leaf;
-    }
-    if let Some(s) = spatial {
-        if let Some((l, r)) = apply_spatial(t, refs, &s) {
-            return Decision::Split(l, r);
-        }
-    }
-    let (l, r) = apply_object(refs, &search, &object);
-    Decision::Split(l, r)
+    sbvh::decide_with(
+        t,
+        refs,
+        bounds,
+        area,
+        depth,
+        budget,
+        |refs, area| sweep_object_search(t, refs, area),
+        |refs, bounds, area, budget| {
+            estimated_spatial_search(t, refs, bounds, area, budget, refine)
+        },
+    )
 }
 
 /// Scratch buffers of the temporaries' searches, one set per thread (the searches call no
