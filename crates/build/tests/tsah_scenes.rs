@@ -2,82 +2,33 @@
 //! (all `#[ignore]`: run them in release mode, for example
 //! `cargo test --release -p sahara-build --test tsah_scenes -- --ignored --nocapture measure`).
 //!
-//! Environment: `SAHARA_SHARED_SCENES` (folder, default `/work/shared/scenes` or
-//! `../shared/scenes`), `TSAH_SCENES` (comma-separated scene names), `TSAH_BUILDERS`
-//! (comma-separated registry names), `TSAH_EPO=1` to also compute the EPO metric.
-//! Scenes are read with a minimal OBJ reader (`v` and `f` records, polygons fan-split;
-//! `.obj.gz` through the `gzip` command).
+//! Environment: `SAHARA_SHARED_SCENES` (a folder, the only one searched when set; else the
+//! scene catalog's folders: `SAHARA_SCENES`, then `../shared/scenes`), `TSAH_SCENES`
+//! (comma-separated scene names), `TSAH_BUILDERS` (comma-separated registry names),
+//! `TSAH_EPO=1` to also compute the EPO metric. Scenes are loaded by `sahara_scene` (`.obj`,
+//! `.obj.gz`, `.gltf`, `.glb`); missing ones are skipped with a message.
 
+mod spatial_support;
 mod tsah_support;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use sahara_build::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_build::{registry, BuildInput, Builder, Bvh};
-use sahara_geom::{Triangle, Vec3A};
+use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
+use sahara_scene::{Catalog, Origin};
+use spatial_support::scene_file_triangles;
 
-fn scenes_dir() -> PathBuf {
-    if let Ok(d) = std::env::var("SAHARA_SHARED_SCENES") {
-        return d.into();
-    }
-    for d in [
-        "/work/shared/scenes",
-        "../shared/scenes",
-        "../../../shared/scenes",
-    ] {
-        if Path::new(d).is_dir() {
-            return d.into();
-        }
-    }
-    "/work/shared/scenes".into()
-}
-
-fn load(name: &str) -> Option<Vec<Triangle>> {
-    let dir = scenes_dir();
-    let plain = dir.join(format!("{name}.obj"));
-    let gz = dir.join(format!("{name}.obj.gz"));
-    let text = if plain.is_file() {
-        std::fs::read_to_string(&plain).ok()?
-    } else if gz.is_file() {
-        let out = std::process::Command::new("gzip")
-            .arg("-dc")
-            .arg(&gz)
-            .output()
-            .ok()?;
-        String::from_utf8(out.stdout).ok()?
-    } else {
-        return None;
+/// The scenes: the folder `SAHARA_SHARED_SCENES` alone when it is set, else the catalog's.
+fn catalog() -> Catalog {
+    let Some(dir) = std::env::var_os("SAHARA_SHARED_SCENES") else {
+        return Catalog::discover();
     };
-    let mut v: Vec<Vec3A> = Vec::new();
-    let mut tris = Vec::new();
-    for line in text.lines() {
-        let mut it = line.split_ascii_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f32> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                v.push(Vec3A::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let idx: Vec<usize> = it
-                    .map(|t| {
-                        let i: i64 = t.split('/').next().unwrap().parse().unwrap();
-                        if i < 0 {
-                            (v.len() as i64 + i) as usize
-                        } else {
-                            i as usize - 1
-                        }
-                    })
-                    .collect();
-                for k in 1..idx.len() - 1 {
-                    tris.push(Triangle::new(v[idx[0]], v[idx[k]], v[idx[k + 1]]));
-                }
-            }
-            _ => {}
-        }
-    }
-    Some(tris)
+    let mut c = Catalog::default();
+    c.add_dir(Path::new(&dir), Origin::Env);
+    c
 }
 
 fn list(var: &str, default: &str) -> Vec<String> {
@@ -159,9 +110,9 @@ fn measure_presets() {
         "| scene | triangles | builder | build ms | CPU ms | SAH | vs sweep | EPO | leaves |"
     );
     eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    let catalog = catalog();
     for scene in &scenes {
-        let Some(tris) = load(scene) else {
-            eprintln!("scene {scene} not found in {}", scenes_dir().display());
+        let Some(tris) = scene_file_triangles(&catalog, scene) else {
             continue;
         };
         let mut base = None;
@@ -240,11 +191,12 @@ fn measure_knobs() {
     }
     eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
     eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    let catalog = catalog();
     for scene in &scenes {
         let tris = match scene.as_str() {
             "soup" => tsah_support::soup(100_000, 5),
             "mesh" => tsah_support::mesh_like(200, 6),
-            s => match load(s) {
+            s => match scene_file_triangles(&catalog, s) {
                 Some(t) => t,
                 None => continue,
             },
@@ -262,8 +214,7 @@ fn measure_knobs() {
 #[test]
 #[ignore]
 fn measure_dragon() {
-    let Some(tris) = load("stanford_dragon") else {
-        eprintln!("stanford_dragon not found");
+    let Some(tris) = scene_file_triangles(&catalog(), "stanford_dragon") else {
         return;
     };
     let builders = list("TSAH_BUILDERS", "sweep,tsah-topk");
@@ -280,7 +231,7 @@ fn measure_dragon() {
 }
 
 #[test]
-fn obj_reader_reads_polygons() {
+fn scene_reader_reads_polygons() {
     // A quad and a triangle: three triangles.
     let dir = std::env::temp_dir().join(format!("tsah-scenes-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -290,9 +241,13 @@ fn obj_reader_reads_polygons() {
     )
     .unwrap();
     std::env::set_var("SAHARA_SHARED_SCENES", &dir);
-    let t = load("q").unwrap();
+    let c = catalog();
     std::env::remove_var("SAHARA_SHARED_SCENES");
+    let t = scene_file_triangles(&c, "q").unwrap();
     assert_eq!(t.len(), 3);
+    // Names without a file are skipped, procedural scenes' names included.
+    assert!(scene_file_triangles(&c, "r").is_none());
+    assert!(scene_file_triangles(&Catalog::discover(), "soup").is_none());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -311,8 +266,11 @@ fn measure_configs() {
     let epo = std::env::var("TSAH_EPO").is_ok();
     eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
     eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    let catalog = catalog();
     for scene in &scenes {
-        let Some(tris) = load(scene) else { continue };
+        let Some(tris) = scene_file_triangles(&catalog, scene) else {
+            continue;
+        };
         let (base, _) = measure(registry::by_name("sweep").unwrap().as_ref(), &tris, epo);
         print_row(scene, tris.len(), "sweep", &base, None);
         for cfg in &configs {
@@ -335,8 +293,11 @@ fn measure_popov_configs() {
     let epo = std::env::var("TSAH_EPO").is_ok();
     eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
     eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    let catalog = catalog();
     for scene in &scenes {
-        let Some(tris) = load(scene) else { continue };
+        let Some(tris) = scene_file_triangles(&catalog, scene) else {
+            continue;
+        };
         let (base, _) = measure(registry::by_name("sweep").unwrap().as_ref(), &tris, epo);
         print_row(scene, tris.len(), "sweep", &base, None);
         for cfg in &configs {

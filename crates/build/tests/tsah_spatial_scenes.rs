@@ -5,59 +5,25 @@
 //! cargo test --release -p sahara-build --test tsah_spatial_scenes -- --ignored --nocapture
 //! ```
 //!
-//! Scenes come from `SAHARA_SCENES` (default `../shared/scenes`), `SCENES` selects them
-//! (default `sibenik,sponza_dabrovic`), `CONFIGS` the configurations (default
-//! `default,fast`; see the list below, `old-default` is the default before issue #4: exact
-//! temporaries, plain top-k candidates, `min_size` 256).
+//! Scenes are the files of the scene catalog (`sahara_scene::Catalog::discover`: the folders
+//! of `SAHARA_SCENES`, then `../shared/scenes`; missing ones are skipped with a message),
+//! `SCENES` selects them (default `sibenik,sponza_dabrovic`), `CONFIGS` the configurations
+//! (default `default,fast`; see the list below, `old-default` is the default before
+//! issue #4: exact temporaries, plain top-k candidates, `min_size` 256).
+
+mod spatial_support;
 
 use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
 use sahara_build::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_build::{BuildInput, Builder};
-use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
-use std::path::PathBuf;
+use sahara_scene::Catalog;
 use std::time::Instant;
-
-fn load_obj(path: &std::path::Path) -> Vec<Triangle> {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut v: Vec<Vec3A> = Vec::new();
-    let mut tris = Vec::new();
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f32> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                v.push(Vec3A::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let idx: Vec<usize> = it
-                    .map(|t| {
-                        let i: i64 = t.split('/').next().unwrap().parse().unwrap();
-                        if i < 0 {
-                            (v.len() as i64 + i) as usize
-                        } else {
-                            i as usize - 1
-                        }
-                    })
-                    .collect();
-                for k in 1..idx.len().saturating_sub(1) {
-                    tris.push(Triangle::new(v[idx[0]], v[idx[k]], v[idx[k + 1]]));
-                }
-            }
-            _ => {}
-        }
-    }
-    tris
-}
 
 #[test]
 #[ignore = "measurement on real scenes; run in release with --ignored --nocapture"]
 fn measure_knobs() {
-    let dir = std::env::var_os("SAHARA_SCENES")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")
-        });
+    let catalog = Catalog::discover();
     let scenes = std::env::var("SCENES").unwrap_or_else(|_| "sibenik,sponza_dabrovic".into());
     let which = std::env::var("CONFIGS").unwrap_or_else(|_| "default,fast".into());
     let mut configs: Vec<(&str, TsahSpatialConfig)> = vec![
@@ -126,7 +92,9 @@ fn measure_knobs() {
     configs.retain(|(n, _)| which.split(',').any(|w| w == *n));
     println!("threads: {}", rayon::current_num_threads());
     for scene in scenes.split(',') {
-        let tris = load_obj(&dir.join(format!("{scene}.obj")));
+        let Some(tris) = spatial_support::scene_file_triangles(&catalog, scene) else {
+            continue;
+        };
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();
         let t = Instant::now();
         let reference = SbvhBuilder::new(SbvhConfig::DEFAULT).build(&input).unwrap();

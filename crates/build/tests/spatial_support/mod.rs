@@ -1,9 +1,12 @@
-//! Scene generators shared by the builder tests (`binned.rs`, `sbvh.rs`, `tsah_spatial.rs`).
+//! Scene generators shared by the builder tests (`binned.rs`, `sbvh.rs`, `tsah_spatial.rs`),
+//! and the real scenes of the measurements (`sbvh_scenes.rs`, `tsah_scenes.rs`,
+//! `tsah_spatial_scenes.rs`).
 #![allow(dead_code)]
 
 use sahara_build::Bvh;
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
+use sahara_scene::Catalog;
 
 pub fn rand_point(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3A {
     Vec3A::new(
@@ -83,4 +86,26 @@ pub fn bits(bvh: &Bvh) -> Vec<u32> {
     }
     v.extend(&bvh.prim_indices);
     v
+}
+
+/// The triangles of the scene file `name` of `catalog` (for [`Catalog::discover`]: a file of
+/// `$SAHARA_SCENES` or `../shared/scenes`; procedural scenes of that name are not taken), or
+/// `None` with a message when there is no such file. Panics when the file does not load.
+pub fn scene_file_triangles(catalog: &Catalog, name: &str) -> Option<Vec<Triangle>> {
+    let Some(entry) = catalog.get(name).filter(|e| e.path().is_some()) else {
+        let dirs: Vec<String> = catalog
+            .dirs()
+            .iter()
+            .map(|(d, _)| d.display().to_string())
+            .collect();
+        eprintln!(
+            "{name}: no such scene file in [{}] ($SAHARA_SCENES, ../shared/scenes), skipped",
+            dirs.join(", ")
+        );
+        return None;
+    };
+    let scene = catalog
+        .load_entry(entry)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    Some(scene.triangles())
 }
