@@ -173,7 +173,7 @@ fn gltf_json(p: &GltfParams, uri: Option<&str>) -> String {
 /// A GLB container: header, JSON chunk (space-padded), optional BIN chunk (zero-padded).
 pub fn glb(json: &str, bin: Option<&[u8]>) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut body = Vec::new();

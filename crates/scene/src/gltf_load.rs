@@ -292,7 +292,7 @@ fn add_primitive(
 
     let tris: Vec<[u32; 3]> = match mode {
         Mode::Triangles => {
-            if indices.len() % 3 != 0 {
+            if !indices.len().is_multiple_of(3) {
                 return Err(SceneError::parse(
                     file,
                     format!(

@@ -47,7 +47,7 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
 /// The rays of a ray file's bytes, or `None` when the length is not a multiple of
 /// [`RAY_RECORD_BYTES`].
 pub fn decode_rays(bytes: &[u8]) -> Option<Vec<Ray>> {
-    if bytes.len() % RAY_RECORD_BYTES != 0 {
+    if !bytes.len().is_multiple_of(RAY_RECORD_BYTES) {
         return None;
     }
     Some(
@@ -81,7 +81,7 @@ pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
 /// The hits of a hit file's bytes, or `None` when the length is not a multiple of
 /// [`HIT_RECORD_BYTES`].
 pub fn decode_hits(bytes: &[u8]) -> Option<Vec<Hit>> {
-    if bytes.len() % HIT_RECORD_BYTES != 0 {
+    if !bytes.len().is_multiple_of(HIT_RECORD_BYTES) {
         return None;
     }
     Some(

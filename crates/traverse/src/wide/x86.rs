@@ -1,4 +1,4 @@
-//! SSE2 and AVX2 backends (x86-64).
+//! SSE2, AVX2 and AVX-512 backends (x86-64).
 //!
 //! The box tests reproduce [`RayData::slab`] lane by lane: `_mm_max_ps(a, b)` and
 //! `_mm_min_ps(a, b)` return `b` when either operand is NaN, so the running near / far
@@ -361,6 +361,46 @@ impl<const W: usize> Kernel<W> for Sse {
     }
 }
 
+/// The 8-wide slab test of an 8-wide node (`W == 8`) against `[box_tmin, tfar]`, exactly as
+/// [`RayData::slab`]: writes the entry distances to `dist` and returns `(near, far)`, whose
+/// lane-wise `near <= far` is the hit mask.
+///
+/// # Safety
+/// AVX2 and FMA must be present; `W == 8`.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn slabs8<const W: usize, const NEG: bool>(
+    node: &WideNode<W>,
+    r: &SseRay,
+    rd: &RayData,
+    tfar: f32,
+    dist: &mut [f32; W],
+) -> (__m256, __m256) {
+    debug_assert_eq!(W, 8);
+    // SAFETY: `W == 8`: rows hold 8 floats, 32-byte aligned (the node is 64-byte aligned and
+    // rows are 32 bytes); `dist` holds 8 floats.
+    unsafe {
+        let base = node.bounds.as_ptr().cast::<f32>();
+        let mut near = _mm256_set1_ps(rd.box_tmin);
+        let mut far = _mm256_set1_ps(tfar);
+        for a in 0..3 {
+            let o = _mm256_set1_ps(rd.origin[a]);
+            let pn = _mm256_load_ps(base.add(r.near_off[a]));
+            let pf = _mm256_load_ps(base.add(r.far_off[a]));
+            let tn = _mm256_mul_ps(_mm256_sub_ps(pn, o), _mm256_set1_ps(rd.inv[a]));
+            let d = _mm256_sub_ps(pf, o);
+            let mut tf = _mm256_mul_ps(d, _mm256_set1_ps(rd.inv_far[a]));
+            if NEG {
+                tf = _mm256_max_ps(tf, _mm256_mul_ps(d, _mm256_set1_ps(rd.inv_far_neg[a])));
+            }
+            near = _mm256_max_ps(tn, near);
+            far = _mm256_min_ps(tf, far);
+        }
+        _mm256_storeu_ps(dist.as_mut_ptr(), near);
+        (near, far)
+    }
+}
+
 /// The AVX2 backend: 8-wide box tests in 256-bit registers (4-wide nodes and triangle
 /// packets use the SSE code, compiled with VEX encoding).
 pub(crate) struct Avx2;
@@ -389,32 +429,73 @@ impl<const W: usize> Kernel<W> for Avx2 {
             // SAFETY: as for `Sse`.
             return unsafe { <Sse as Kernel<W>>::intersect_node::<NEG>(node, r, rd, tfar, dist) };
         }
-        // SAFETY: `W == 8`: rows hold 8 floats, 32-byte aligned (the node is 64-byte aligned
-        // and rows are 32 bytes); `dist` holds 8 floats.
+        // SAFETY: `W == 8`; the caller guarantees AVX2 and FMA.
         unsafe {
-            let base = node.bounds.as_ptr().cast::<f32>();
-            let mut near = _mm256_set1_ps(rd.box_tmin);
-            let mut far = _mm256_set1_ps(tfar);
-            for a in 0..3 {
-                let o = _mm256_set1_ps(rd.origin[a]);
-                let pn = _mm256_load_ps(base.add(r.near_off[a]));
-                let pf = _mm256_load_ps(base.add(r.far_off[a]));
-                let tn = _mm256_mul_ps(_mm256_sub_ps(pn, o), _mm256_set1_ps(rd.inv[a]));
-                let d = _mm256_sub_ps(pf, o);
-                let mut tf = _mm256_mul_ps(d, _mm256_set1_ps(rd.inv_far[a]));
-                if NEG {
-                    tf = _mm256_max_ps(tf, _mm256_mul_ps(d, _mm256_set1_ps(rd.inv_far_neg[a])));
-                }
-                near = _mm256_max_ps(tn, near);
-                far = _mm256_min_ps(tf, far);
-            }
-            _mm256_storeu_ps(dist.as_mut_ptr(), near);
+            let (near, far) = slabs8::<W, NEG>(node, r, rd, tfar, dist);
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
         }
     }
 
     // Not a `target_feature` function, so that it is always inlined into the AVX2 entry
     // points (which enable the features; the SSE code is then VEX-encoded).
+    #[inline(always)]
+    unsafe fn intersect_packet<const NEG: bool>(
+        p: &TriPacket,
+        r: &SseRay,
+        _: &RayData,
+        tfar: f32,
+        out: &mut PacketHits,
+    ) -> (u32, u32) {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { packet_closest::<NEG>(p, r, tfar, out) }
+    }
+
+    #[inline(always)]
+    unsafe fn occlude_packet<const NEG: bool>(
+        p: &TriPacket,
+        r: &SseRay,
+        _: &RayData,
+    ) -> (u32, u32) {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { packet_occluded::<NEG>(p, r) }
+    }
+}
+
+/// The AVX-512 backend: the AVX2 kernels compiled with AVX-512F and AVX-512VL as well. The
+/// vectors stay 256 bits wide (no frequency penalty); the 8-wide box test's mask comes from a
+/// mask register, and the entry points, into which everything is inlined, have 32 vector
+/// registers (the ray's constants no longer spill). +2–3% over [`Avx2`] on Zen 4.
+pub(crate) struct Avx512;
+
+impl<const W: usize> Kernel<W> for Avx512 {
+    type Ray = SseRay;
+
+    #[inline(always)]
+    unsafe fn prepare(rd: &RayData) -> SseRay {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { sse_ray::<W>(rd) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    unsafe fn intersect_node<const NEG: bool>(
+        node: &WideNode<W>,
+        r: &SseRay,
+        rd: &RayData,
+        tfar: f32,
+        dist: &mut [f32; W],
+    ) -> u32 {
+        if W != 8 {
+            // SAFETY: as for `Sse`.
+            return unsafe { <Sse as Kernel<W>>::intersect_node::<NEG>(node, r, rd, tfar, dist) };
+        }
+        // SAFETY: `W == 8`; the caller guarantees the features.
+        unsafe {
+            let (near, far) = slabs8::<W, NEG>(node, r, rd, tfar, dist);
+            u32::from(_mm256_cmp_ps_mask::<_CMP_LE_OQ>(near, far))
+        }
+    }
+
     #[inline(always)]
     unsafe fn intersect_packet<const NEG: bool>(
         p: &TriPacket,
@@ -556,4 +637,12 @@ entry_points!(
     any_hit_avx2,
     closest_avx2_slow,
     any_avx2_slow
+);
+entry_points!(
+    Avx512,
+    [#[target_feature(enable = "avx2,fma,avx512f,avx512vl")]],
+    closest_hit_avx512,
+    any_hit_avx512,
+    closest_avx512_slow,
+    any_avx512_slow
 );
