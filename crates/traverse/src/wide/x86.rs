@@ -305,17 +305,52 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
     }
 }
 
+/// The members every x86 backend shares: the ray's constants in SSE registers and the 4-wide
+/// packet tests. They are not `target_feature` functions, so they are always inlined into the
+/// backend's entry points, which compile them with their own features (VEX encoding under AVX2,
+/// EVEX and 32 registers under AVX-512). The 256-bit constants of the 8-wide box test are
+/// broadcast in `intersect_node`, which is inlined into the traversal loop, so they are
+/// hoisted out of it (building them in `prepare` would need a `target_feature` function that
+/// is not inlined).
+macro_rules! sse_ray_and_packets {
+    () => {
+        type Ray = SseRay;
+
+        #[inline(always)]
+        unsafe fn prepare(rd: &RayData) -> SseRay {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { sse_ray::<W>(rd) }
+        }
+
+        #[inline(always)]
+        unsafe fn intersect_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+            tfar: f32,
+            out: &mut PacketHits,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { packet_closest::<NEG>(p, r, tfar, out) }
+        }
+
+        #[inline(always)]
+        unsafe fn occlude_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { packet_occluded::<NEG>(p, r) }
+        }
+    };
+}
+
 /// The SSE2 backend: 4 lanes at a time.
 pub(crate) struct Sse;
 
 impl<const W: usize> Kernel<W> for Sse {
-    type Ray = SseRay;
-
-    #[inline(always)]
-    unsafe fn prepare(rd: &RayData) -> SseRay {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { sse_ray::<W>(rd) }
-    }
+    sse_ray_and_packets!();
 
     #[inline(always)]
     unsafe fn intersect_node<const NEG: bool>(
@@ -336,28 +371,6 @@ impl<const W: usize> Kernel<W> for Sse {
             }
             mask
         }
-    }
-
-    #[inline(always)]
-    unsafe fn intersect_packet<const NEG: bool>(
-        p: &TriPacket,
-        r: &SseRay,
-        _: &RayData,
-        tfar: f32,
-        out: &mut PacketHits,
-    ) -> (u32, u32) {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest::<NEG>(p, r, tfar, out) }
-    }
-
-    #[inline(always)]
-    unsafe fn occlude_packet<const NEG: bool>(
-        p: &TriPacket,
-        r: &SseRay,
-        _: &RayData,
-    ) -> (u32, u32) {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded::<NEG>(p, r) }
     }
 }
 
@@ -406,15 +419,7 @@ unsafe fn slabs8<const W: usize, const NEG: bool>(
 pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
-    type Ray = SseRay;
-
-    #[inline(always)]
-    unsafe fn prepare(rd: &RayData) -> SseRay {
-        // SAFETY: SSE2 is part of x86-64. (The 256-bit constants are broadcast in
-        // `intersect_node`, which is inlined into the traversal loop, so they are hoisted out of
-        // it; building them here would need a `target_feature` function that is not inlined.)
-        unsafe { sse_ray::<W>(rd) }
-    }
+    sse_ray_and_packets!();
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
@@ -435,30 +440,6 @@ impl<const W: usize> Kernel<W> for Avx2 {
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
         }
     }
-
-    // Not a `target_feature` function, so that it is always inlined into the AVX2 entry
-    // points (which enable the features; the SSE code is then VEX-encoded).
-    #[inline(always)]
-    unsafe fn intersect_packet<const NEG: bool>(
-        p: &TriPacket,
-        r: &SseRay,
-        _: &RayData,
-        tfar: f32,
-        out: &mut PacketHits,
-    ) -> (u32, u32) {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest::<NEG>(p, r, tfar, out) }
-    }
-
-    #[inline(always)]
-    unsafe fn occlude_packet<const NEG: bool>(
-        p: &TriPacket,
-        r: &SseRay,
-        _: &RayData,
-    ) -> (u32, u32) {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded::<NEG>(p, r) }
-    }
 }
 
 /// The AVX-512 backend: the AVX2 kernels compiled with AVX-512F and AVX-512VL as well. The
@@ -468,13 +449,7 @@ impl<const W: usize> Kernel<W> for Avx2 {
 pub(crate) struct Avx512;
 
 impl<const W: usize> Kernel<W> for Avx512 {
-    type Ray = SseRay;
-
-    #[inline(always)]
-    unsafe fn prepare(rd: &RayData) -> SseRay {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { sse_ray::<W>(rd) }
-    }
+    sse_ray_and_packets!();
 
     #[inline]
     #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
@@ -494,28 +469,6 @@ impl<const W: usize> Kernel<W> for Avx512 {
             let (near, far) = slabs8::<W, NEG>(node, r, rd, tfar, dist);
             u32::from(_mm256_cmp_ps_mask::<_CMP_LE_OQ>(near, far))
         }
-    }
-
-    #[inline(always)]
-    unsafe fn intersect_packet<const NEG: bool>(
-        p: &TriPacket,
-        r: &SseRay,
-        _: &RayData,
-        tfar: f32,
-        out: &mut PacketHits,
-    ) -> (u32, u32) {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_closest::<NEG>(p, r, tfar, out) }
-    }
-
-    #[inline(always)]
-    unsafe fn occlude_packet<const NEG: bool>(
-        p: &TriPacket,
-        r: &SseRay,
-        _: &RayData,
-    ) -> (u32, u32) {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe { packet_occluded::<NEG>(p, r) }
     }
 }
 
