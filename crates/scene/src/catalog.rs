@@ -275,6 +275,23 @@ impl Catalog {
         &self.entries
     }
 
+    /// The file entries, one per model: a file in the same folder and with the same stem as
+    /// an earlier file entry (the same model in another format, such as an `.obj` and its
+    /// `.glb`) is left out, so that a sweep over the scene files visits each model once.
+    /// Catalog order.
+    pub fn distinct_files(&self) -> Vec<&CatalogEntry> {
+        let mut seen = HashSet::new();
+        self.entries
+            .iter()
+            .filter(|e| match &e.kind {
+                EntryKind::File { path, format } => {
+                    seen.insert((path.parent().map(Path::to_path_buf), format.stem(path)))
+                }
+                EntryKind::Procedural(_) => false,
+            })
+            .collect()
+    }
+
     /// The entry named `name`.
     pub fn get(&self, name: &str) -> Option<&CatalogEntry> {
         self.entries.iter().find(|e| e.name == name)

@@ -301,3 +301,25 @@ fn gltf_with_bad_external_uri_is_an_error() {
     let p = write(&dir, "ok.gltf", json.as_bytes());
     assert_eq!(load_mesh(&p).unwrap().triangle_count(), 1);
 }
+
+#[test]
+fn distinct_files_list_each_model_once() {
+    let dir = temp_dir("distinct");
+    for f in ["a.obj", "a.glb", "b.obj.gz", "c.gltf"] {
+        write(&dir, f, b"");
+    }
+    let mut c = sahara_scene::Catalog::procedural();
+    c.add_dir(&dir, sahara_scene::Origin::Dir);
+    let all: Vec<&str> = c
+        .entries()
+        .iter()
+        .filter(|e| e.path().is_some())
+        .map(|e| e.name.as_str())
+        .collect();
+    assert_eq!(all.len(), 4, "{all:?}");
+    let distinct: Vec<&str> = c.distinct_files().iter().map(|e| e.name.as_str()).collect();
+    // `a.glb` is `a.obj`'s model in another format: listed once, under the first entry.
+    assert_eq!(distinct.len(), 3, "{distinct:?}");
+    assert!(distinct.contains(&"a") && distinct.contains(&"b") && distinct.contains(&"c"));
+    assert!(!distinct.iter().any(|n| n.starts_with("a_")));
+}

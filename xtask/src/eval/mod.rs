@@ -150,12 +150,10 @@ fn default_scenes(quick: bool) -> Vec<String> {
         .to_vec();
     }
     let catalog = sahara_scene::Catalog::discover();
+    // One file per model (the engine's GLB is its OBJ's model: traced once).
     let mut v: Vec<String> = catalog
-        .entries()
-        .iter()
-        .filter(|e| e.path().is_some())
-        // The GLB is the same geometry as its OBJ: trace it once.
-        .filter(|e| !e.name.ends_with("_glb"))
+        .distinct_files()
+        .into_iter()
         .map(|e| e.name.clone())
         .collect();
     v.extend(["sphere_in_box", "teapot_stadium", "city", "hairball"].map(String::from));
