@@ -103,17 +103,20 @@ pub struct TriangleHit {
     pub v: f32,
 }
 
-/// Watertight ray/triangle test. Returns the hit when it lies in `[tmin, tmax]`.
+/// Watertight ray/triangle test. Returns the hit when it lies in `[tmin, tmax]`, its distance
+/// decided and reported by [`accept_hit`].
 ///
 /// Both faces are hit (no culling). Degenerate triangles (zero determinant, or three
 /// collinear vertices: see [`accept_hit`]) never hit. The result is a miss or a hit at a
 /// finite distance, never a NaN or infinite one, whatever the ray (zero, NaN, infinite or
 /// subnormal directions) and the triangle.
 ///
-/// In `f32`, rounding can make the sheared 2-D test accept a ray that passes beside a
-/// zero-area triangle, or (for triangles whose extent dwarfs their distance from the origin,
-/// near `f32::MAX`) return a distance far from the triangle's plane. Such answers fail
-/// [`accept_hit`] and are misses.
+/// In `f32`, the distance's rounding error grows with the triangle's extent along the ray's
+/// dominant axis (a weighted sum of vertex distances cancels), and for triangles whose extent
+/// dwarfs their distance from the origin (near `f32::MAX`) the distance can land far from the
+/// triangle's plane. [`accept_hit`] clamps the distance into the ray's span through the
+/// triangle's own box (which holds the exact hit), and a ray whose span misses the interval
+/// misses.
 #[inline]
 pub fn intersect_triangle(
     r: &WatertightRay,
@@ -154,19 +157,30 @@ pub fn intersect_triangle(
     let az = sz * a[kz];
     let bz = sz * b[kz];
     let cz = sz * c[kz];
+    // An exact early out (it never changes the answer, only spares work): `az`, `bz`, `cz` are
+    // computed like the near distances of the dominant axis's slab, so the span entry of
+    // `accept_hit` is at least their minimum, and its exit at most the largest far distance of
+    // that axis. A triangle wholly beyond `tmax` or behind `tmin` fails the range check anyway.
+    let far = |d: f32| {
+        let f = d * (r.inv_direction[kz] * ROBUST_FAR_SCALE);
+        if tmin < 0.0 {
+            let g = d * (r.inv_direction[kz] * ROBUST_NEG_FAR_SCALE);
+            if f > g {
+                f
+            } else {
+                g
+            }
+        } else {
+            f
+        }
+    };
+    let zfar = far(a[kz]).max(far(b[kz])).max(far(c[kz]));
+    if !(az.min(bz).min(cz) <= tmax && zfar >= tmin) {
+        return None;
+    }
     let t_scaled = u * az + v * bz + w * cz;
-    // Compare before dividing: t = t_scaled / det must lie in [tmin, tmax].
-    let sign = det.signum();
-    let ts = t_scaled * sign;
-    let ad = det * sign;
-    if !(ts >= tmin * ad && ts <= tmax * ad) {
-        return None;
-    }
     let inv = 1.0 / det;
-    let t = t_scaled * inv;
-    if !(t >= tmin && t <= tmax && accept_hit(r, tri, tmin, t)) {
-        return None;
-    }
+    let t = accept_hit(r, tri, tmin, tmax, t_scaled * inv)?;
     Some(TriangleHit {
         t,
         u: v * inv,
@@ -174,34 +188,86 @@ pub fn intersect_triangle(
     })
 }
 
-/// The final check of every hit the watertight test computes (the wide kernels apply it to
-/// their SIMD hits too): true when
+/// The final step of every hit the watertight test computes (the wide kernels apply it to
+/// their SIMD hits too, lane by lane with the same operations): decides whether the distance
+/// `t` computed by the test is a hit in `[tmin, tmax]`, and returns the distance to report.
 ///
-/// * `t` is finite (a valid ray whose true hit distance overflows `f32` misses);
-/// * the triangle is not degenerate ([`is_degenerate`]);
-/// * the slab test [`intersect_aabb`] of the triangle's own bounding box admits the interval
-///   `[lower_distance(tmin), cull_distance(t)]`.
+/// With `[n, f]` = [`slab_span`] of the triangle's own bounding box (the computed entry and exit
+/// of the ray, whatever its interval):
 ///
-/// The last condition is what makes BVH traversal agree with brute force on every hit: the
-/// slab test's computed distances are monotonic in the box (a larger box never has a later
-/// computed entry or an earlier computed exit), so every box containing the triangle passes
-/// the same test for any interval containing that one, and the kernels cull with exactly
-/// `[lower_distance(tmin), cull_distance(best t)]`. For ordinary triangles it never rejects a
-/// hit (the widening by 2^-16 of the distance dwarfs the rounding of both tests); it rejects
-/// the rounding artefacts of the `f32` test on degenerate and extreme triangles.
+/// * the triangle must not be degenerate ([`is_degenerate`]) and the span not empty (`n <= f`);
+/// * the distance is clamped into the span, `t_c = min(max(t, n), f)`: the exact hit lies
+///   inside the triangle's box, and the span contains the exact entry and exit up to one
+///   rounding of the entry, so clamping only ever moves `t` towards the exact distance;
+/// * `t_c` must be finite and lie in `[tmin, tmax]`; it is the reported distance.
+///
+/// Why clamp: the test's distance is a weighted sum of the vertices' distances along the
+/// dominant axis, so its absolute rounding error grows with the triangle's extent along that
+/// axis, not with `t`. For a triangle whose box has zero extent on one axis (a floor, a wall)
+/// the span is a single distance, and no relative widening of `t` reaches it reliably: the old
+/// rule (the span had to meet `[lower_distance(tmin), cull_distance(t)]`) dropped such hits.
+///
+/// What makes BVH traversal agree with brute force: the reported `t` lies in `[n, f]` and in
+/// `[tmin, tmax]`, so the triangle's box passes the slab test over `[lower_distance(tmin),
+/// cull_distance(t)]` and, the computed slab distances being monotonic in the box, so does
+/// every box containing the triangle, for every interval containing that one. Kernels cull with
+/// `[lower_distance(tmin), cull_distance(min(best t, tmax))]`, so no box holding a hit at or
+/// before the best one is ever culled. `docs/robustness.md` gives the whole argument.
 #[inline]
-pub fn accept_hit(r: &WatertightRay, tri: &Triangle, tmin: f32, t: f32) -> bool {
-    if !t.is_finite() || is_degenerate(tri) {
-        return false;
+pub fn accept_hit(r: &WatertightRay, tri: &Triangle, tmin: f32, tmax: f32, t: f32) -> Option<f32> {
+    if is_degenerate(tri) {
+        return None;
     }
-    intersect_aabb(
-        r.origin,
-        r.inv_direction,
-        lower_distance(tmin),
-        cull_distance(t),
-        &tri.bounds(),
-    )
-    .is_some()
+    let (n, f) = slab_span(r.origin, r.inv_direction, tmin < 0.0, &tri.bounds());
+    let tc = clamp_to_span(t, n, f);
+    (n <= f && tc >= tmin && tc <= tmax && tc.is_finite()).then_some(tc)
+}
+
+/// `min(max(t, lo), hi)` with the operand order of the SIMD kernels' selects (`t` stays when a
+/// comparison is false, so a NaN `t` stays NaN).
+#[inline(always)]
+pub fn clamp_to_span(t: f32, lo: f32, hi: f32) -> f32 {
+    let t = if t < lo { lo } else { t };
+    if t > hi {
+        hi
+    } else {
+        t
+    }
+}
+
+/// The computed entry and exit distances `(n, f)` of the line `origin + t · direction` through
+/// a box, with the operations of [`intersect_aabb`] but without the ray's interval: `n` is the
+/// largest near-plane distance, `f` the smallest far-plane distance (scaled as in
+/// [`far_factors`]; `neg_far` for rays with `tmin < 0`, as in [`intersect_aabb`]). A NaN slab
+/// distance (zero direction component with the origin on a slab plane) is ignored, as the SIMD
+/// `maxps`/`minps` running maximum and minimum ignore it: `n` starts at `-∞`, `f` at `+∞`.
+/// [`intersect_aabb`] over `[tmin, tmax]` passes exactly when `max(tmin, n) <= min(tmax, f)`.
+///
+/// The operations are those of the SIMD kernels lane by lane (the near plane chosen by the sign
+/// of the reciprocal direction, `(plane - origin) · inv`), so the distances agree to the bit,
+/// signs of zeros included: a hit clamped to `n` or `f` reports that value.
+#[inline]
+pub fn slab_span(origin: Vec3A, inv_direction: Vec3A, neg_far: bool, aabb: &Aabb) -> (f32, f32) {
+    let negative = inv_direction.cmplt(Vec3A::ZERO);
+    let lo = Vec3A::select(negative, aabb.max, aabb.min);
+    let hi = Vec3A::select(negative, aabb.min, aabb.max);
+    let tnear = ((lo - origin) * inv_direction).to_array();
+    let (far_pos, far_neg) = far_factors(inv_direction);
+    let d = hi - origin;
+    let tf_pos = (d * far_pos).to_array();
+    let tf_neg = (d * far_neg).to_array();
+    let (mut n, mut f) = (f32::NEG_INFINITY, f32::INFINITY);
+    for a in 0..3 {
+        let mut tf = tf_pos[a];
+        if neg_far {
+            // `maxps(tf, tf_neg)`: the second operand unless the first is larger.
+            tf = if tf > tf_neg[a] { tf } else { tf_neg[a] };
+        }
+        // `maxps(tn, n)` / `minps(tf, f)`: the running value when the slab distance is NaN.
+        n = if tnear[a] > n { tnear[a] } else { n };
+        f = if tf < f { tf } else { f };
+    }
+    (n, f)
 }
 
 /// True when the triangle's three vertices are collinear (or coincide): the cross product of

@@ -28,6 +28,7 @@ pub fn cases(level: Level) -> Vec<Case> {
     bad_geometry_cases(level, &mut v);
     non_finite_cases(&mut v);
     procedural_cases(level, &mut v);
+    flat_floor_cases(level, &mut v);
     if level == Level::Full {
         v.push(huge_case());
     }
@@ -50,6 +51,7 @@ fn base_case(name: String, category: Category, note: &str, tris: Vec<Triangle>) 
         expect_non_finite: None,
         check_determinism: true,
         only_builders: None,
+        oracle: false,
     }
 }
 
@@ -709,8 +711,8 @@ fn non_finite_cases(v: &mut Vec<Case>) {
 // ---------------------------------------------------------------------------------------------
 // Procedural scenes
 
-/// A `n × n` grid of primary rays of the scene's default camera.
-fn camera_rays(cam: &Camera, n: u32) -> Vec<Ray> {
+/// A `n × n` grid of primary rays of a camera (square pixels over the vertical field of view).
+pub fn camera_rays(cam: &Camera, n: u32) -> Vec<Ray> {
     let f = (cam.target - cam.eye).normalize();
     let r = f.cross(cam.up).normalize_or_zero();
     let r = if r == Vec3A::ZERO {
@@ -750,6 +752,49 @@ fn procedural_cases(level: Level, v: &mut Vec<Case>) {
         );
         case.rays = rays;
         v.push(case);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Axis-aligned floors and walls
+
+/// A floor-and-wall level ([`crate::floors`]) at each scale from 1 to 10^4, at the origin and
+/// far from it, with camera, grazing, secondary and AO rays; brute force is also judged by the
+/// exact oracle.
+fn flat_floor_cases(level: Level, v: &mut Vec<Case>) {
+    let n = match level {
+        Level::Fast => 250,
+        Level::Full => 4000,
+    };
+    for (k, scale) in [1.0f32, 10.0, 100.0, 1000.0, 10000.0]
+        .into_iter()
+        .enumerate()
+    {
+        for far in [false, true] {
+            let offset = if far {
+                crate::floors::far_offset(scale)
+            } else {
+                Vec3A::ZERO
+            };
+            let tris = crate::floors::floors_and_walls(scale, offset, k as u64);
+            let rays = crate::floors::flat_rays(&tris, scale, offset, n, 100 + k as u64)
+                .into_iter()
+                .map(|(_, r)| r)
+                .collect();
+            let where_ = if far { "far" } else { "origin" };
+            let mut case = base_case(
+                format!("flat-floors/level-x{scale}@{where_}"),
+                Category::FlatFloors,
+                "axis-aligned floors and walls: large flat triangles, grazing and secondary rays",
+                tris,
+            );
+            case.rays = rays;
+            case.oracle = true;
+            // Equality and the oracle are the point here; the other categories cover
+            // determinism of every builder.
+            case.check_determinism = k == 0 && !far;
+            v.push(case);
+        }
     }
 }
 

@@ -43,8 +43,10 @@
 
 mod cases;
 pub mod corpus;
+pub mod floors;
 pub mod fuzzing;
 mod guard;
+pub mod pinning;
 mod rays;
 pub mod report;
 mod runner;
@@ -53,7 +55,7 @@ pub mod timing;
 use std::fmt;
 use std::sync::Arc;
 
-pub use cases::cases;
+pub use cases::{camera_rays, cases};
 pub use guard::catch_quiet;
 pub use runner::{run_case, run_case_with, Options};
 
@@ -85,6 +87,10 @@ pub enum Category {
     NonFinite,
     /// The procedural scenes of the catalog (ordinary inputs, for determinism and equality).
     Procedural,
+    /// Axis-aligned floors and walls ([`floors`]): large flat triangles near and far from the
+    /// origin at 1 to 10^4 units, grazing rays and secondary rays leaving a surface. Besides
+    /// equality, brute force is pinned by the exact oracle ([`Case::oracle`]).
+    FlatFloors,
     /// More than 2^24 triangles (float counters lose integers there); [`Level::Full`] only.
     Huge,
 }
@@ -98,6 +104,7 @@ impl Category {
             Category::BadGeometry => "bad-geometry",
             Category::NonFinite => "non-finite",
             Category::Procedural => "procedural",
+            Category::FlatFloors => "flat-floors",
             Category::Huge => "huge",
         }
     }
@@ -126,6 +133,12 @@ pub struct Case {
     pub check_determinism: bool,
     /// Builders to run (`None`: every registered builder).
     pub only_builders: Option<Vec<String>>,
+    /// Also judge brute force (closest hit and any hit) against the exact oracle of
+    /// `sahara-oracle`, which shares no code with the kernels (subject `oracle`): no ray may
+    /// miss, or hit farther than, a hit the oracle finds away from edges, and no reported hit
+    /// may be one the oracle rejects (rays on an edge, or whose candidates `f32` cannot order,
+    /// are counted apart).
+    pub oracle: bool,
 }
 
 impl Case {

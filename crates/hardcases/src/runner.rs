@@ -106,6 +106,30 @@ pub fn run_case_with(
     };
     let (ok, detail) = check_brute(case, &reference);
     out.push(outcome(case, "brute", None, None, ok, detail, secs));
+    if case.oracle {
+        // The reference pinned by the exact oracle (which shares no code with it).
+        let start = Instant::now();
+        let judged = catch_quiet(|| {
+            let oracle = crate::pinning::oracle_for(&tris);
+            (
+                crate::pinning::pin_closest(&oracle, &rays, &reference.closest),
+                crate::pinning::pin_any(&oracle, &rays, &reference.any),
+            )
+        });
+        let secs = start.elapsed().as_secs_f64();
+        let (ok, detail) = match judged {
+            Ok((c, a)) => {
+                let ok = c.failures() + a.failures() == 0;
+                let mut d = format!("closest hit: {c}; any hit: {a}");
+                if let Some(f) = c.first_failure.as_ref().or(a.first_failure.as_ref()) {
+                    d.push_str(&format!(" (first failure: {f})"));
+                }
+                (ok, d)
+            }
+            Err(p) => (false, p),
+        };
+        out.push(outcome(case, "oracle", None, None, ok, detail, secs));
+    }
 
     for entry in builders {
         let name = entry.name.to_string();

@@ -71,6 +71,13 @@ fn procedural_scenes() {
     run(&[Category::Procedural]);
 }
 
+/// Axis-aligned floors and walls at 1 to 10^4 units: kernel equality, and brute force pinned by
+/// the exact oracle (issue 13: valid hits on flat-box triangles were dropped).
+#[test]
+fn flat_floors() {
+    run(&[Category::FlatFloors]);
+}
+
 #[test]
 fn every_kernel_is_listed() {
     let k = kernels();
@@ -92,6 +99,7 @@ fn fast_cases_cover_every_category_but_huge() {
         Category::BadGeometry,
         Category::NonFinite,
         Category::Procedural,
+        Category::FlatFloors,
     ] {
         assert!(all.iter().any(|x| x.category == c), "{c:?}");
     }

@@ -131,9 +131,9 @@ impl Hit {
 }
 
 /// The closest hit of every ray through `bvh` (a plain stack traversal with the watertight
-/// triangle test and the robust slab test; ties at equal distance go to the triangle found
-/// first). Metrics use it to find where the rays of a coarse camera grid end; the result does
-/// not depend on the tree up to such ties. Invalid rays miss.
+/// triangle test and the robust slab test; ties at equal distance go to the lowest triangle
+/// index, as in the kernels). Metrics use it to find where the rays of a coarse camera grid
+/// end; the result does not depend on the tree. Invalid rays miss.
 pub fn closest_hits(bvh: &Bvh, tris: &[Triangle], rays: &[Ray]) -> Vec<Option<Hit>> {
     rays.par_iter()
         .map_init(
@@ -155,8 +155,13 @@ pub fn closest_hits(bvh: &Bvh, tris: &[Triangle], rays: &[Ray]) -> Vec<Option<Hi
                     }
                     if node.is_leaf() {
                         for &p in bvh.leaf_prims(node) {
-                            if let Some(h) = intersect_triangle(&w, &tris[p as usize], r.tmin, tmax)
-                            {
+                            // The ray's own interval (the reported distance is clamped into
+                            // it), then the kernels' order: nearer, or as near with a lower index.
+                            let Some(h) = intersect_triangle(&w, &tris[p as usize], r.tmin, r.tmax)
+                            else {
+                                continue;
+                            };
+                            if h.t < tmax || (h.t == tmax && best.is_none_or(|b| p < b.triangle)) {
                                 tmax = h.t;
                                 best = Some(Hit {
                                     t: h.t,

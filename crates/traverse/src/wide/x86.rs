@@ -21,6 +21,10 @@ pub(crate) struct SseRay {
     /// The reciprocal direction scaled for far planes (positive and negative distances).
     inv_far: [__m128; 3],
     inv_far_neg: [__m128; 3],
+    /// `max(tmin, -f32::MAX)` and `min(tmax, f32::MAX)`: the range check of [`accept4`] with
+    /// its finiteness check folded in.
+    t_lo: __m128,
+    t_hi: __m128,
     box_tmin: __m128,
     tmin: __m128,
     tmax: __m128,
@@ -32,6 +36,10 @@ pub(crate) struct SseRay {
     w_origin: [__m128; 3],
     w_shear: [__m128; 3],
     w_axis: [usize; 3],
+    /// The far-plane factors of the dominant axis (`inv_far[kz]`, `inv_far_neg[kz]`), for
+    /// [`dominant_slab4`].
+    w_far: __m128,
+    w_far_neg: __m128,
 }
 
 #[inline(always)]
@@ -50,6 +58,8 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
             ],
             inv_far: rd.inv_far.map(|x| _mm_set1_ps(x)),
             inv_far_neg: rd.inv_far_neg.map(|x| _mm_set1_ps(x)),
+            t_lo: _mm_set1_ps(rd.tmin.max(-f32::MAX)),
+            t_hi: _mm_set1_ps(rd.tmax.min(f32::MAX)),
             box_tmin: _mm_set1_ps(rd.box_tmin),
             tmin: _mm_set1_ps(rd.tmin),
             tmax: _mm_set1_ps(rd.tmax),
@@ -66,6 +76,8 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
                 _mm_set1_ps(w.shear.z),
             ],
             w_axis: [kx, ky, kz],
+            w_far: _mm_set1_ps(rd.inv_far[kz]),
+            w_far_neg: _mm_set1_ps(rd.inv_far_neg[kz]),
         }
     }
 }
@@ -175,13 +187,49 @@ unsafe fn tri4(p: &TriPacket, r: &SseRay) -> Edges {
     }
 }
 
-/// The scaled hit distance `u·az + v·bz + w·cz` of the reference (`az = sz · dz`, …).
+/// The vertices' distances along the ray's dominant axis, `z_i = sz · dz_i` (the reference's
+/// `az`, `bz`, `cz`), and the mask of lanes that can pass [`accept4`]'s range check with a
+/// distance at most `hi`: the smallest `z_i` is at most `hi` and the largest far distance of the
+/// dominant axis, `max_i dz_i · inv_far[kz]` (and `inv_far_neg[kz]` for `NEG`), at least `tmin`.
+///
+/// This is exact, not a heuristic: `z_i` is computed with the operations of the triangle box's
+/// near distance on that axis, which is therefore `min_i z_i` (rounding is monotonic), and the
+/// span's entry `n` is at least that; likewise its exit `f` is at most the far bound. The
+/// reported distance lies in `[n, f]`, so a lane failing this test would fail the range check
+/// (or the closest-hit `t <= tfar`) anyway. It spares the span for lanes whose triangle lies
+/// wholly behind the origin or beyond the current hit.
 #[inline(always)]
-unsafe fn t_scaled(e: &Edges, r: &SseRay) -> __m128 {
+unsafe fn dominant_slab4<const NEG: bool>(
+    e: &Edges,
+    r: &SseRay,
+    hi: __m128,
+) -> (__m128, [__m128; 3]) {
     // SAFETY (whole function): SSE2 is part of x86-64.
     unsafe {
         let sz = r.w_shear[2];
-        let [az, bz, cz] = e.dz.map(|d| _mm_mul_ps(sz, d));
+        let z = e.dz.map(|d| _mm_mul_ps(sz, d));
+        let zmin = _mm_min_ps(z[0], _mm_min_ps(z[1], z[2]));
+        let far = |d: __m128| {
+            let f = _mm_mul_ps(d, r.w_far);
+            if NEG {
+                _mm_max_ps(f, _mm_mul_ps(d, r.w_far_neg))
+            } else {
+                f
+            }
+        };
+        let [d0, d1, d2] = e.dz;
+        let zfar = _mm_max_ps(far(d0), _mm_max_ps(far(d1), far(d2)));
+        let ok = _mm_and_ps(_mm_cmple_ps(zmin, hi), _mm_cmpge_ps(zfar, r.tmin));
+        (ok, z)
+    }
+}
+
+/// The scaled hit distance `u·az + v·bz + w·cz` of the reference.
+#[inline(always)]
+unsafe fn t_scaled(e: &Edges, z: [__m128; 3]) -> __m128 {
+    // SAFETY (whole function): SSE2 is part of x86-64.
+    unsafe {
+        let [az, bz, cz] = z;
         _mm_add_ps(
             _mm_add_ps(_mm_mul_ps(e.u, az), _mm_mul_ps(e.v, bz)),
             _mm_mul_ps(e.w, cz),
@@ -189,47 +237,30 @@ unsafe fn t_scaled(e: &Edges, r: &SseRay) -> __m128 {
     }
 }
 
-/// Distance checks of the watertight test; returns `(ok, t, 1 / det)`.
-#[inline(always)]
-unsafe fn tri4_range(r: &SseRay, t_scaled: __m128, det: __m128, ok: __m128) -> [__m128; 3] {
-    // SAFETY (whole function): SSE2 is part of x86-64.
-    unsafe {
-        // ts = t_scaled * sign(det), ad = |det| (the reference multiplies by ±1.0, which only
-        // flips the sign bit).
-        let sign = _mm_and_ps(det, _mm_set1_ps(-0.0));
-        let ts = _mm_xor_ps(t_scaled, sign);
-        let ad = _mm_xor_ps(det, sign);
-        let in_range = _mm_and_ps(
-            _mm_cmpge_ps(ts, _mm_mul_ps(r.tmin, ad)),
-            _mm_cmple_ps(ts, _mm_mul_ps(r.tmax, ad)),
-        );
-        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
-        let t = _mm_mul_ps(t_scaled, inv);
-        let t_ok = _mm_and_ps(_mm_cmpge_ps(t, r.tmin), _mm_cmple_ps(t, r.tmax));
-        [_mm_and_ps(_mm_and_ps(ok, in_range), t_ok), t, inv]
-    }
-}
-
-/// [`accept_hit`] of the 4 lanes of a packet hit at `t` (degenerate triangles are stored as
-/// NaN lanes, which never hit, so only the other two conditions are left): `t` is finite, and
-/// the slab test of each lane's triangle bounds, with the operations of [`intersect_aabb`] and
-/// the reciprocal direction of the watertight constants (as the reference), admits
-/// `[lower_distance(tmin), cull_distance(t)]`. `NEG` as in the box tests (for `tmin >= 0` a
-/// negative far distance fails with either scale).
+/// [`accept_hit`] of the 4 lanes of a packet whose watertight test computed the distance `t`
+/// (degenerate triangles are stored as NaN lanes, which never pass the edge tests, so the
+/// degeneracy check is not repeated): the [`slab_span`] `[n, f]` of each lane's triangle
+/// bounds, with the operations of the reference, `t` clamped into
+/// it (`minps(f, maxps(n, t))` is exactly [`clamp_to_span`]), and the range check against
+/// `[tmin, min(tmax, hi)]` with finiteness. Returns `(accepted mask, reported t)`. `NEG` as in
+/// the box tests.
 ///
 /// [`accept_hit`]: sahara_geom::intersect::accept_hit
-/// [`intersect_aabb`]: sahara_geom::intersect::intersect_aabb
+/// [`slab_span`]: sahara_geom::intersect::slab_span
+/// [`clamp_to_span`]: sahara_geom::intersect::clamp_to_span
 #[inline(always)]
-unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, t: __m128) -> __m128 {
+unsafe fn accept4<const NEG: bool>(
+    p: &TriPacket,
+    r: &SseRay,
+    t: __m128,
+    hi: __m128,
+) -> (__m128, __m128) {
     // SAFETY (whole function): the packet is 16-byte aligned and its vertex rows hold 4
     // floats each.
     unsafe {
         let base = p.v.as_ptr().cast::<f32>();
-        let at = _mm_and_ps(t, _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff)));
-        let finite = _mm_cmplt_ps(at, _mm_set1_ps(f32::INFINITY));
-        // `cull_distance(t)`: t + |t| · 2^-16.
-        let mut far = _mm_add_ps(t, _mm_mul_ps(at, _mm_set1_ps(1.0 / 65536.0)));
-        let mut near = r.box_tmin;
+        let mut near = _mm_set1_ps(f32::NEG_INFINITY);
+        let mut far = _mm_set1_ps(f32::INFINITY);
         for a in 0..3 {
             let v0 = _mm_load_ps(base.add(a * 4));
             let v1 = _mm_load_ps(base.add(12 + a * 4));
@@ -249,7 +280,12 @@ unsafe fn accept4<const NEG: bool>(p: &TriPacket, r: &SseRay, t: __m128) -> __m1
             near = _mm_max_ps(tn, near);
             far = _mm_min_ps(tf, far);
         }
-        _mm_and_ps(finite, _mm_cmple_ps(near, far))
+        let tc = _mm_min_ps(far, _mm_max_ps(near, t));
+        let ok = _mm_and_ps(
+            _mm_cmple_ps(near, far),
+            _mm_and_ps(_mm_cmpge_ps(tc, r.t_lo), _mm_cmple_ps(tc, hi)),
+        );
+        (ok, tc)
     }
 }
 
@@ -263,20 +299,22 @@ unsafe fn packet_closest<const NEG: bool>(
     // SAFETY (whole function): SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
     unsafe {
         let e = tri4(p, r);
-        let pre = _mm_movemask_ps(e.ok) as u32;
         let fallback = _mm_movemask_ps(e.is_zero) as u32;
-        if pre & !fallback == 0 {
-            return (0, fallback);
-        }
-        let [ok, t, inv] = tri4_range(r, t_scaled(&e, r), e.det, e.ok);
-        let ok = _mm_andnot_ps(
-            e.is_zero,
-            _mm_and_ps(ok, _mm_cmple_ps(t, _mm_set1_ps(tfar))),
-        );
+        let ok = _mm_andnot_ps(e.is_zero, e.ok);
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, t))) as u32;
+        let tfar = _mm_set1_ps(tfar);
+        let (reach, z) = dominant_slab4::<NEG>(&e, r, tfar);
+        let ok = _mm_and_ps(ok, reach);
+        if _mm_movemask_ps(ok) == 0 {
+            return (0, fallback);
+        }
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), e.det);
+        let hi = _mm_min_ps(r.t_hi, tfar);
+        let (accepted, t) = accept4::<NEG>(p, r, _mm_mul_ps(t_scaled(&e, z), inv), hi);
+        let ok = _mm_and_ps(ok, accepted);
+        let hits = _mm_movemask_ps(ok) as u32;
         if hits != 0 {
             _mm_storeu_ps(out.t.as_mut_ptr(), t);
             _mm_storeu_ps(out.u.as_mut_ptr(), _mm_mul_ps(e.v, inv));
@@ -292,15 +330,18 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
     unsafe {
         let e = tri4(p, r);
         let fallback = _mm_movemask_ps(e.is_zero) as u32;
-        if _mm_movemask_ps(e.ok) as u32 & !fallback == 0 {
-            return (0, fallback);
-        }
-        let [ok, t, _] = tri4_range(r, t_scaled(&e, r), e.det, e.ok);
-        let ok = _mm_andnot_ps(e.is_zero, ok);
+        let ok = _mm_andnot_ps(e.is_zero, e.ok);
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let hits = _mm_movemask_ps(_mm_and_ps(ok, accept4::<NEG>(p, r, t))) as u32;
+        let (reach, z) = dominant_slab4::<NEG>(&e, r, r.tmax);
+        let ok = _mm_and_ps(ok, reach);
+        if _mm_movemask_ps(ok) == 0 {
+            return (0, fallback);
+        }
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), e.det);
+        let (accepted, _) = accept4::<NEG>(p, r, _mm_mul_ps(t_scaled(&e, z), inv), r.t_hi);
+        let hits = _mm_movemask_ps(_mm_and_ps(ok, accepted)) as u32;
         (hits, fallback)
     }
 }
