@@ -8,6 +8,8 @@ mod hardcases;
 mod oracle_cmd;
 mod scaling;
 mod scenes_cmd;
+#[cfg(test)]
+mod tidy;
 mod trace_cmd;
 mod util;
 

@@ -264,3 +264,8 @@ pub fn known_bug_for(case: &str, subject: &str, detail: &str) -> Option<&'static
             && detail.contains(b.detail_contains)
     })
 }
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

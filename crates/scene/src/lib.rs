@@ -67,3 +67,8 @@ pub use scene::{Scene, SceneSource};
 pub use shapes::{closed_box, revolve, tessellated_sphere, torus, uv_sphere};
 
 pub use sahara_geom::{Aabb, Triangle, Vec3A};
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

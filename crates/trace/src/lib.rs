@@ -86,3 +86,8 @@ pub use render::{
 pub use sahara_traverse::{Hit, WorkCounters};
 pub use timing::{measure, mrays_per_s, Throughput, Timing};
 pub use tracer::{BruteTracer, Bvh2Tracer, Tracer, WideTracer};
+
+/// The README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -2,7 +2,8 @@
 //! Stanford bunny (a benchmark, not a test: run it with
 //! `cargo test --release -p sahara-traverse --test wide_bench -- --ignored --nocapture`).
 //!
-//! The scene is read from `$SAHARA_SCENES/stanford_bunny.obj` (default `/work/shared/scenes`),
+//! The scene is read from `$SAHARA_SCENES/stanford_bunny.obj` (default `../shared/scenes` beside
+//! the workspace),
 //! the binary tree is a binned SAH build (see `wide_common::sah_bvh`, leaves of at most
 //! `$SAHARA_BENCH_LEAF` = 4 triangles) or, with `SAHARA_BENCH_BUILDER=<name>`, the
 //! `sahara-build` registry's builder of that name (for example `sweep`); the camera is the "framed" one of BASELINES.md:
@@ -150,7 +151,8 @@ fn sah_cost(bvh: &Bvh) -> f64 {
 #[test]
 #[ignore = "benchmark: run with --ignored --nocapture"]
 fn bunny_primary_rays() {
-    let dir = std::env::var("SAHARA_SCENES").unwrap_or_else(|_| "/work/shared/scenes".into());
+    let dir = std::env::var("SAHARA_SCENES")
+        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/scenes").into());
     let leaf: usize = std::env::var("SAHARA_BENCH_LEAF").map_or(4, |s| s.parse().unwrap());
     let tris = wide_common::load_obj(&format!("{dir}/stanford_bunny.obj"));
     let b = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
