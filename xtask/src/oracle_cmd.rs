@@ -11,8 +11,8 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use sahara_geom::{Ray, Triangle, Vec3A};
-use sahara_hardcases::floors::{far_offset, flat_rays, floors_and_walls, FlatRayKind};
+use sahara_geom::Triangle;
+use sahara_hardcases::floors::{levels, FlatRayKind};
 use sahara_hardcases::pinning::{oracle_for, pin_reference, Tally};
 use sahara_scene::{Catalog, Origin};
 use sahara_trace::{Bvh2Tracer, RayKind, RaySet};
@@ -102,32 +102,21 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     if !a.no_flat {
-        for (k, scale) in [1.0f32, 10.0, 100.0, 1000.0, 10000.0]
-            .into_iter()
-            .enumerate()
-        {
-            for far in [false, true] {
-                let offset = if far { far_offset(scale) } else { Vec3A::ZERO };
-                let tris = floors_and_walls(scale, offset, k as u64);
-                let oracle = oracle_for(&tris);
-                let bvh = sweep(&tris)?;
-                let rays = flat_rays(&tris, scale, offset, a.flat_rays, 100 + k as u64);
-                let name = format!("floors-x{scale}@{}", if far { "far" } else { "origin" });
-                for kind in FlatRayKind::ALL {
-                    let set: Vec<Ray> = rays
-                        .iter()
-                        .filter(|(k, _)| *k == kind)
-                        .map(|(_, r)| *r)
-                        .collect();
-                    let t = pin_reference(&oracle, &bvh, &tris, &set, kind.uses_any_hit());
-                    eprintln!("oracle: {name} {}: {t}", kind.name());
-                    rows.push(Row {
-                        scene: name.clone(),
-                        triangles: tris.len(),
-                        ray_kind: kind.name().into(),
-                        tally: t,
-                    });
-                }
+        for l in levels() {
+            let tris = l.triangles();
+            let oracle = oracle_for(&tris);
+            let bvh = sweep(&tris)?;
+            let name = format!("floors-{}", l.name);
+            for kind in FlatRayKind::ALL {
+                let set = l.rays(&tris, a.flat_rays, 100 + l.seed, kind);
+                let t = pin_reference(&oracle, &bvh, &tris, &set, kind.uses_any_hit());
+                eprintln!("oracle: {name} {}: {t}", kind.name());
+                rows.push(Row {
+                    scene: name.clone(),
+                    triangles: tris.len(),
+                    ray_kind: kind.name().into(),
+                    tally: t,
+                });
             }
         }
     }

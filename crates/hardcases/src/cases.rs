@@ -766,35 +766,24 @@ fn flat_floor_cases(level: Level, v: &mut Vec<Case>) {
         Level::Fast => 250,
         Level::Full => 4000,
     };
-    for (k, scale) in [1.0f32, 10.0, 100.0, 1000.0, 10000.0]
-        .into_iter()
-        .enumerate()
-    {
-        for far in [false, true] {
-            let offset = if far {
-                crate::floors::far_offset(scale)
-            } else {
-                Vec3A::ZERO
-            };
-            let tris = crate::floors::floors_and_walls(scale, offset, k as u64);
-            let rays = crate::floors::flat_rays(&tris, scale, offset, n, 100 + k as u64)
-                .into_iter()
-                .map(|(_, r)| r)
-                .collect();
-            let where_ = if far { "far" } else { "origin" };
-            let mut case = base_case(
-                format!("flat-floors/level-x{scale}@{where_}"),
-                Category::FlatFloors,
-                "axis-aligned floors and walls: large flat triangles, grazing and secondary rays",
-                tris,
-            );
-            case.rays = rays;
-            case.oracle = true;
-            // Equality and the oracle are the point here; the other categories cover
-            // determinism of every builder.
-            case.check_determinism = k == 0 && !far;
-            v.push(case);
-        }
+    for l in crate::floors::levels() {
+        let tris = l.triangles();
+        let rays = crate::floors::flat_rays(&tris, l.scale, l.offset, n, 100 + l.seed)
+            .into_iter()
+            .map(|(_, r)| r)
+            .collect();
+        let mut case = base_case(
+            format!("flat-floors/level-{}", l.name),
+            Category::FlatFloors,
+            "axis-aligned floors and walls: large flat triangles, grazing and secondary rays",
+            tris,
+        );
+        case.rays = rays;
+        case.oracle = true;
+        // Equality and the oracle are the point here; the other categories cover
+        // determinism of every builder.
+        case.check_determinism = l.name == "x1@origin";
+        v.push(case);
     }
 }
 

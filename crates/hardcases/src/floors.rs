@@ -178,6 +178,54 @@ fn boxed(
     }
 }
 
+/// The scales of the levels every check uses: 1 to 10^4 units.
+pub const SCALES: [f32; 5] = [1.0, 10.0, 100.0, 1000.0, 10000.0];
+
+/// One floor-and-wall level of the standard set ([`levels`]).
+#[derive(Clone, Debug)]
+pub struct FlatLevel {
+    /// `x<scale>@origin` or `x<scale>@far`.
+    pub name: String,
+    /// Grid unit in scene units.
+    pub scale: f32,
+    /// Where the level's grid origin is.
+    pub offset: Vec3A,
+    /// The level's index in [`levels`] order of scales (its geometry seed).
+    pub seed: u64,
+}
+
+impl FlatLevel {
+    /// The level's triangles ([`floors_and_walls`]).
+    pub fn triangles(&self) -> Vec<Triangle> {
+        floors_and_walls(self.scale, self.offset, self.seed)
+    }
+
+    /// `n` rays of `kind` ([`flat_rays`] with `seed`, filtered).
+    pub fn rays(&self, tris: &[Triangle], n: usize, seed: u64, kind: FlatRayKind) -> Vec<Ray> {
+        flat_rays(tris, self.scale, self.offset, n, seed)
+            .into_iter()
+            .filter(|(k, _)| *k == kind)
+            .map(|(_, r)| r)
+            .collect()
+    }
+}
+
+/// The standard set: every scale of [`SCALES`], at the origin and at [`far_offset`].
+pub fn levels() -> Vec<FlatLevel> {
+    let mut v = Vec::new();
+    for (k, scale) in SCALES.into_iter().enumerate() {
+        for far in [false, true] {
+            v.push(FlatLevel {
+                name: format!("x{scale}@{}", if far { "far" } else { "origin" }),
+                scale,
+                offset: if far { far_offset(scale) } else { Vec3A::ZERO },
+                seed: k as u64,
+            });
+        }
+    }
+    v
+}
+
 /// The offset of a level "far from the origin" at `scale`: about 25 level sizes away on every
 /// axis, where a level's coordinates have lost about five bits to the offset.
 pub fn far_offset(scale: f32) -> Vec3A {

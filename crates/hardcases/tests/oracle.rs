@@ -11,7 +11,7 @@ use sahara_build::{registry, BuildInput, CostModel};
 use sahara_bvh::Bvh;
 use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
 use sahara_hardcases::camera_rays;
-use sahara_hardcases::floors::{far_offset, flat_rays, floors_and_walls, FlatRayKind};
+use sahara_hardcases::floors::{levels, FlatRayKind};
 use sahara_hardcases::pinning::{oracle_for, pin_reference, Tally};
 use sahara_scene::Catalog;
 use sahara_traverse::{scalar, NoStats};
@@ -34,26 +34,15 @@ fn assert_clean(what: &str, t: &Tally) {
 #[test]
 fn floors_and_walls_every_real_hit_found() {
     let mut total = Tally::default();
-    for (k, scale) in [1.0f32, 10.0, 100.0, 1000.0, 10000.0]
-        .into_iter()
-        .enumerate()
-    {
-        for far in [false, true] {
-            let offset = if far { far_offset(scale) } else { Vec3A::ZERO };
-            let tris = floors_and_walls(scale, offset, k as u64);
+    for l in levels() {
+        let tris = l.triangles();
+        let (bvh, oracle) = (sweep(&tris), oracle_for(&tris));
+        for kind in FlatRayKind::ALL {
             // Other seeds than the hard cases' and the xtask's.
-            let rays = flat_rays(&tris, scale, offset, 2500, 900 + k as u64);
-            let (bvh, oracle) = (sweep(&tris), oracle_for(&tris));
-            for kind in FlatRayKind::ALL {
-                let set: Vec<Ray> = rays
-                    .iter()
-                    .filter(|(x, _)| *x == kind)
-                    .map(|(_, r)| *r)
-                    .collect();
-                let t = pin_reference(&oracle, &bvh, &tris, &set, kind.uses_any_hit());
-                assert_clean(&format!("floors x{scale} far={far} {}", kind.name()), &t);
-                total.add(&t);
-            }
+            let set = l.rays(&tris, 2500, 900 + l.seed, kind);
+            let t = pin_reference(&oracle, &bvh, &tris, &set, kind.uses_any_hit());
+            assert_clean(&format!("floors {} {}", l.name, kind.name()), &t);
+            total.add(&t);
         }
     }
     eprintln!("floor-and-wall levels: {total}");
