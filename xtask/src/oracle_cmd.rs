@@ -54,6 +54,17 @@ struct Row {
     tally: Tally,
 }
 
+/// Prints a judged ray set and keeps its row.
+fn record(rows: &mut Vec<Row>, scene: &str, triangles: usize, kind: &str, tally: Tally) {
+    eprintln!("oracle: {scene} {kind}: {tally}");
+    rows.push(Row {
+        scene: scene.into(),
+        triangles,
+        ray_kind: kind.into(),
+        tally,
+    });
+}
+
 fn sweep(tris: &[Triangle]) -> Result<sahara_bvh::Bvh> {
     let input = sahara_build::BuildInput::new(tris, sahara_build::CostModel::default())?;
     Ok(crate::util::builder("sweep")?.build(&input)?)
@@ -91,13 +102,7 @@ pub fn run(a: Args) -> Result<()> {
             ] {
                 let set = RaySet::generate(kind, &camera, a.width, a.height, &tracer, tris, 1);
                 let t = pin_reference(&oracle, &bvh, tris, &set.rays, kind.uses_any_hit());
-                eprintln!("oracle: {name} {}: {t}", kind.name());
-                rows.push(Row {
-                    scene: name.clone(),
-                    triangles: tris.len(),
-                    ray_kind: kind.name().into(),
-                    tally: t,
-                });
+                record(&mut rows, &name, tris.len(), kind.name(), t);
             }
         }
     }
@@ -110,13 +115,7 @@ pub fn run(a: Args) -> Result<()> {
             for kind in FlatRayKind::ALL {
                 let set = l.rays(&tris, a.flat_rays, 100 + l.seed, kind);
                 let t = pin_reference(&oracle, &bvh, &tris, &set, kind.uses_any_hit());
-                eprintln!("oracle: {name} {}: {t}", kind.name());
-                rows.push(Row {
-                    scene: name.clone(),
-                    triangles: tris.len(),
-                    ray_kind: kind.name().into(),
-                    tally: t,
-                });
+                record(&mut rows, &name, tris.len(), kind.name(), t);
             }
         }
     }

@@ -279,11 +279,7 @@ fn bad_ray_cases(level: Level, v: &mut Vec<Case>) {
     let mut rays = Vec::with_capacity(n_rays);
     for i in 0..n_rays {
         let t = &tris[rng.below(tris.len() as u32) as usize];
-        let (mut a, mut b) = (rng.next_f32(), rng.next_f32());
-        if a + b > 1.0 {
-            (a, b) = (1.0 - a, 1.0 - b);
-        }
-        let target = t.point(a, b);
+        let target = crate::rays::on_triangle(&mut rng, t);
         let origin = in_ball(&mut rng, Vec3A::ZERO, 8.0);
         let d = target - origin;
         rays.push(if i % 2 == 0 {

@@ -12,6 +12,7 @@
 //! grazing rays just above a floor, secondary rays leaving a surface (origin pushed off the
 //! surface as renderers do, or on it with a small `tmin`), and ambient-occlusion rays.
 
+use crate::rays::{on_triangle, unit};
 use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
 
 /// What a ray of [`flat_rays`] is, which decides its query.
@@ -256,7 +257,7 @@ pub fn flat_rays(
         let o = inside(&mut rng);
         out.push((
             FlatRayKind::Camera,
-            Ray::new(o, sphere(&mut rng), 0.0, f32::INFINITY),
+            Ray::new(o, unit(&mut rng), 0.0, f32::INFINITY),
         ));
     }
     for _ in 0..n {
@@ -284,11 +285,7 @@ pub fn flat_rays(
     for kind in [FlatRayKind::Secondary, FlatRayKind::AmbientOcclusion] {
         for i in 0..n {
             let tri = &tris[rng.below(tris.len() as u32) as usize];
-            let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
-            if u + v > 1.0 {
-                (u, v) = (1.0 - u, 1.0 - v);
-            }
-            let p = tri.point(u, v);
+            let p = on_triangle(&mut rng, tri);
             let mut nrm = (tri.v[1] - tri.v[0])
                 .cross(tri.v[2] - tri.v[0])
                 .normalize_or_zero();
@@ -296,7 +293,7 @@ pub fn flat_rays(
                 nrm = -nrm;
             }
             // Cosine-weighted, with one ray in four nearly tangent to the surface.
-            let mut d = sphere(&mut rng);
+            let mut d = unit(&mut rng);
             if d.dot(nrm) < 0.0 {
                 d = -d;
             }
@@ -319,14 +316,6 @@ pub fn flat_rays(
         }
     }
     out
-}
-
-/// A uniform random unit vector.
-fn sphere(rng: &mut Pcg32) -> Vec3A {
-    let z = rng.range_f32(-1.0, 1.0);
-    let a = rng.range_f32(0.0, std::f32::consts::TAU);
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    Vec3A::new(r * a.cos(), r * a.sin(), z)
 }
 
 #[cfg(test)]

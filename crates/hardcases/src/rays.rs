@@ -13,6 +13,16 @@ pub(crate) fn unit(rng: &mut Pcg32) -> Vec3A {
     Vec3A::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// A point uniformly distributed on a triangle (two uniform numbers, folded into the lower half
+/// of the unit square).
+pub(crate) fn on_triangle(rng: &mut Pcg32, tri: &Triangle) -> Vec3A {
+    let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
+    if u + v > 1.0 {
+        (u, v) = (1.0 - u, 1.0 - v);
+    }
+    tri.point(u, v)
+}
+
 /// A point uniformly distributed in the ball of radius `radius` around `center`.
 pub(crate) fn in_ball(rng: &mut Pcg32, center: Vec3A, radius: f32) -> Vec3A {
     center + unit(rng) * (radius * rng.next_f32().cbrt())
@@ -115,13 +125,7 @@ pub(crate) fn probe(tris: &[Triangle], n: usize, rng: &mut Pcg32) -> Vec<Ray> {
         let tri = &tris[rng.below(tris.len() as u32) as usize];
         let target = match i % 4 {
             0 => tri.v[rng.below(3) as usize],
-            1 | 2 => {
-                let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
-                if u + v > 1.0 {
-                    (u, v) = (1.0 - u, 1.0 - v);
-                }
-                tri.point(u, v)
-            }
+            1 | 2 => on_triangle(rng, tri),
             _ => Vec3A::new(
                 rng.range_f32(b.min.x, b.max.x),
                 rng.range_f32(b.min.y, b.max.y),
