@@ -2,7 +2,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use sahara_benches::procedural;
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_scene::Procedural;
 
 fn builders(c: &mut Criterion) {

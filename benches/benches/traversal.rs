@@ -1,7 +1,7 @@
 //! Trace throughput of the traversal layouts on primary and diffuse rays, one thread.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_scene::Procedural;
 use sahara_trace::{Bvh2Tracer, Camera, RayKind, RaySet, Tracer, WideTracer};
 

@@ -2,7 +2,7 @@
 
 use crate::util::{self, Spread};
 use anyhow::Result;
-use sahara_build::{BuildInput, CostModel};
+use sahara_builders::{BuildInput, CostModel};
 use serde::Serialize;
 
 #[derive(clap::Args)]
@@ -95,7 +95,7 @@ pub fn build_and_measure(
 
 pub fn run(a: Args) -> Result<()> {
     let scene = util::load_scene(&a.scene)?;
-    let limit = sahara_build::registry::entries()
+    let limit = sahara_builders::registry::entries()
         .into_iter()
         .find(|e| e.name == a.builder)
         .and_then(|e| e.max_practical_triangles);
@@ -143,7 +143,7 @@ pub fn run(a: Args) -> Result<()> {
 
 pub fn list_builders() -> Result<()> {
     println!("{:<18} {:<8} description / configuration", "name", "kind");
-    for e in sahara_build::registry::entries() {
+    for e in sahara_builders::registry::entries() {
         let b = (e.make)();
         let kind = if e.spatial { "spatial" } else { "object" };
         println!("{:<18} {:<8} {}", e.name, kind, e.summary);

@@ -52,13 +52,13 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let level = if a.full { Level::Full } else { Level::Fast };
     let start = Instant::now();
-    let mut builders = sahara_build::registry::entries();
+    let mut builders = sahara_builders::registry::entries();
     if !a.builders.is_empty() {
         for b in &a.builders {
             anyhow::ensure!(
                 builders.iter().any(|e| e.name == b),
                 "unknown builder {b:?} (known: {})",
-                sahara_build::registry::names().join(", ")
+                sahara_builders::registry::names().join(", ")
             );
         }
         builders.retain(|e| a.builders.iter().any(|b| b == e.name));
@@ -198,11 +198,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 /// take more than a second are skipped on inputs above 10 000 triangles in `--full` runs
 /// (they would take hours on the million-triangle meshes; the fast level covers them).
 fn calibrate(
-    builders: &[sahara_build::registry::Entry],
+    builders: &[sahara_builders::registry::Entry],
     quiet: bool,
 ) -> anyhow::Result<Vec<String>> {
     let tris = sahara_scene::soup(20_000, 1).triangles();
-    let input = sahara_build::BuildInput::new(&tris, sahara_build::CostModel::default())?;
+    let input = sahara_builders::BuildInput::new(&tris, sahara_builders::CostModel::default())?;
     let mut slow = Vec::new();
     for e in builders.iter().filter(|e| !e.small_inputs_only) {
         let t = Instant::now();

@@ -66,7 +66,7 @@ fn record(rows: &mut Vec<Row>, scene: &str, triangles: usize, kind: &str, tally:
 }
 
 fn sweep(tris: &[Triangle]) -> Result<sahara_bvh::Bvh> {
-    let input = sahara_build::BuildInput::new(tris, sahara_build::CostModel::default())?;
+    let input = sahara_builders::BuildInput::new(tris, sahara_builders::CostModel::default())?;
     Ok(crate::util::builder("sweep")?.build(&input)?)
 }
 

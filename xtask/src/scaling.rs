@@ -7,7 +7,7 @@
 
 use crate::util::{self, Spread};
 use anyhow::Result;
-use sahara_build::{BuildInput, CostModel};
+use sahara_builders::{BuildInput, CostModel};
 use sahara_scene::Procedural;
 use serde::Serialize;
 
@@ -85,7 +85,7 @@ pub fn measure(
     let mut out = Vec::new();
     for name in builders {
         let builder = util::builder(name)?;
-        let limit = sahara_build::registry::entries()
+        let limit = sahara_builders::registry::entries()
             .iter()
             .find(|e| e.name == name.as_str())
             .and_then(|e| e.max_practical_triangles)
@@ -120,7 +120,7 @@ pub fn measure(
 }
 
 pub fn default_builders() -> Vec<String> {
-    sahara_build::registry::entries()
+    sahara_builders::registry::entries()
         .into_iter()
         .filter(|e| !e.small_inputs_only)
         .map(|e| e.name.to_string())

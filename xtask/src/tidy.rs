@@ -380,7 +380,7 @@ fn find_words(dir: &Path, words: &[&str], skip_tests: bool) -> Vec<String> {
 #[test]
 fn builders_never_see_rays() {
     let hits = find_words(
-        &root().join("crates/build/src"),
+        &root().join("crates/builders/src"),
         &[
             "Ray",
             "RaySet",
@@ -393,14 +393,14 @@ fn builders_never_see_rays() {
     assert!(
         hits.is_empty(),
         "docs/ARCHITECTURE.md: builders never see rays (their input is triangles and a cost \
-         model); remove these from crates/build/src:\n{}\n",
+         model); remove these from crates/builders/src:\n{}\n",
         hits.join("\n")
     );
-    let m = parse_manifest(&root().join("crates/build/Cargo.toml"));
+    let m = parse_manifest(&root().join("crates/builders/Cargo.toml"));
     for bad in ["sahara-traverse", "sahara-trace"] {
         assert!(
             !m.deps.contains(bad) && !m.dev_deps.contains(bad),
-            "crates/build/Cargo.toml: remove `{bad}`: builders never see rays \
+            "crates/builders/Cargo.toml: remove `{bad}`: builders never see rays \
              (docs/ARCHITECTURE.md)"
         );
     }
@@ -429,12 +429,16 @@ fn metrics_never_mutate_trees() {
 fn traversal_never_knows_the_builder() {
     let m = parse_manifest(&root().join("crates/traverse/Cargo.toml"));
     assert!(
-        !m.deps.contains("sahara-build"),
-        "crates/traverse/Cargo.toml: remove `sahara-build` from [dependencies] (only its tests may \
+        !m.deps.contains("sahara-builders"),
+        "crates/traverse/Cargo.toml: remove `sahara-builders` from [dependencies] (only its tests may \
          use it, in [dev-dependencies]): traversal never knows the builder (docs/ARCHITECTURE.md)"
     );
     // `#[cfg(test)]` modules may use the builders, which are a dev-dependency.
-    let hits = find_words(&root().join("crates/traverse/src"), &["sahara_build"], true);
+    let hits = find_words(
+        &root().join("crates/traverse/src"),
+        &["sahara_builders"],
+        true,
+    );
     assert!(
         hits.is_empty(),
         "docs/ARCHITECTURE.md: traversal never knows the builder; outside `#[cfg(test)]` code, \
@@ -445,23 +449,23 @@ fn traversal_never_knows_the_builder() {
 
 #[test]
 fn registry_names_are_unique_and_match_builders() {
-    let entries = sahara_build::registry::entries();
+    let entries = sahara_builders::registry::entries();
     assert!(
         !entries.is_empty(),
-        "crates/build/src/registry.rs: no builder registered"
+        "crates/builders/src/registry.rs: no builder registered"
     );
     let mut seen = BTreeSet::new();
     for e in &entries {
         assert!(
             seen.insert(e.name),
-            "crates/build/src/registry.rs: the name `{}` is registered twice; rename one preset",
+            "crates/builders/src/registry.rs: the name `{}` is registered twice; rename one preset",
             e.name
         );
         let builder = (e.make)();
         assert_eq!(
             builder.name(),
             e.name,
-            "crates/build: the registry entry `{}` makes a builder whose `Builder::name()` is \
+            "crates/builders: the registry entry `{}` makes a builder whose `Builder::name()` is \
              `{}`; make them equal (registry_entries() of its module)",
             e.name,
             builder.name()

@@ -199,7 +199,7 @@ pub fn run(a: Args) -> Result<()> {
     let scene = util::load_scene(&a.scene)?;
     let builder = util::builder(&a.builder)?;
     let input =
-        sahara_build::BuildInput::new(&scene.triangles, sahara_build::CostModel::default())?;
+        sahara_builders::BuildInput::new(&scene.triangles, sahara_builders::CostModel::default())?;
     let bvh = util::with_threads(a.threads, || builder.build(&input))??;
     let layout = if a.engine == "embree" {
         "embree"

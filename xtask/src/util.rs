@@ -85,11 +85,11 @@ pub fn git_commit() -> String {
 }
 
 /// Builds the registry preset `name`.
-pub fn builder(name: &str) -> Result<Box<dyn sahara_build::Builder>> {
-    sahara_build::registry::by_name(name).with_context(|| {
+pub fn builder(name: &str) -> Result<Box<dyn sahara_builders::Builder>> {
+    sahara_builders::registry::by_name(name).with_context(|| {
         format!(
             "unknown builder '{name}'; known: {}",
-            sahara_build::registry::names().join(", ")
+            sahara_builders::registry::names().join(", ")
         )
     })
 }

@@ -4,7 +4,7 @@
 //! `tests/files.rs` through the checks of [`crate::fuzzing`]. The same valid files seed the
 //! cargo-fuzz corpus (`fuzz/corpus/<target>/`).
 
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_geom::rng::Pcg32;
 
 use crate::fuzzing::fixture_triangles;

@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use sahara_build::{registry, BuildError, BuildInput, CostModel};
+use sahara_builders::{registry, BuildError, BuildInput, CostModel};
 use sahara_bvh::Bvh;
 use sahara_geom::{Ray, Triangle, Vec3A};
 use sahara_scene::{parse_gltf, parse_obj, Mesh, SceneError};

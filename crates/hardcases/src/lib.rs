@@ -1,7 +1,7 @@
 //! Hard cases for sahara: a suite that tries to break every builder, metric and kernel.
 //!
 //! The suite is organised as a list of [`Case`]s (a scene, a ray set and what must hold) that
-//! [`run_case`] checks against every registered builder ([`sahara_build::registry`]) and every
+//! [`run_case`] checks against every registered builder ([`sahara_builders::registry`]) and every
 //! traversal [`Kernel`] (the binary tree with the scalar reference kernels, and the 4- and
 //! 8-wide layouts with each SIMD backend this CPU has, plus the portable fallback):
 //!
@@ -32,7 +32,7 @@
 //! ```no_run
 //! use sahara_hardcases::{cases, kernels, run_case, Level};
 //!
-//! let builders = sahara_build::registry::entries();
+//! let builders = sahara_builders::registry::entries();
 //! for case in cases(Level::Fast) {
 //!     for o in run_case(&case, &builders, &kernels()) {
 //!         assert!(o.passed || o.known_bug.is_some(), "{} / {}: {}", o.case, o.subject, o.detail);
@@ -82,8 +82,8 @@ pub enum Category {
     BadRays,
     /// Degenerate or numerically extreme (but finite) triangles.
     BadGeometry,
-    /// A NaN or infinite coordinate: [`sahara_build::BuildInput::new`] must reject it with
-    /// [`sahara_build::BuildError::NonFinite`] naming the triangle.
+    /// A NaN or infinite coordinate: [`sahara_builders::BuildInput::new`] must reject it with
+    /// [`sahara_builders::BuildError::NonFinite`] naming the triangle.
     NonFinite,
     /// The procedural scenes of the catalog (ordinary inputs, for determinism and equality).
     Procedural,

@@ -5,7 +5,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
-use sahara_build::{registry::Entry, BuildError, BuildInput, Builder, Bvh, CostModel};
+use sahara_builders::{registry::Entry, BuildError, BuildInput, Builder, Bvh, CostModel};
 use sahara_geom::{Ray, Triangle};
 use sahara_traverse::{brute, scalar, Backend, Hit, NoStats, WideBvh};
 

@@ -5,7 +5,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_geom::{rng::Pcg32, Ray, Vec3A};
 use sahara_scene::{Procedural, DEFAULT_SEED};
 use sahara_traverse::{scalar, Bvh, NoStats, WideBvh};

@@ -19,7 +19,7 @@ fn options() -> Options {
 }
 
 fn run(categories: &[Category]) {
-    let builders = sahara_build::registry::entries();
+    let builders = sahara_builders::registry::entries();
     let kernels = kernels();
     let mut outcomes = Vec::new();
     let mut n = 0;

@@ -149,7 +149,7 @@ fn sah_is_finite_for_huge_coordinates() {
 /// this test asserts the work counts, which timing noise cannot touch.)
 #[test]
 fn denormal_direction_does_not_visit_the_whole_tree() {
-    use sahara_build::{registry, BuildInput};
+    use sahara_builders::{registry, BuildInput};
     use sahara_traverse::WorkCounters;
     let scene = sahara_scene::Procedural::SphereInBox.scene(20_000, 1);
     let tris = scene.triangles();

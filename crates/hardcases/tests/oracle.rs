@@ -7,7 +7,7 @@
 //! `f32` cannot order are counted apart. Before the fix of issue 13 (hits on flat-box triangles
 //! rejected by the acceptance rule) the floor-and-wall sample failed on every scale.
 
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::Bvh;
 use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
 use sahara_hardcases::camera_rays;

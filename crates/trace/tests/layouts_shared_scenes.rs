@@ -29,7 +29,7 @@
 //! only the procedural scenes are checked.
 
 use rayon::prelude::*;
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_geom::{Ray, Triangle};
 use sahara_scene::{Catalog, Procedural, Scene};
 use sahara_trace::{Bvh2Tracer, Camera, RayKind, RaySet};

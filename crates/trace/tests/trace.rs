@@ -8,7 +8,7 @@ use sahara_traverse::brute;
 use std::path::PathBuf;
 
 // ---------------------------------------------------------------------------------------------
-// A small scene and a tiny median-split builder (the tests must not depend on sahara-build).
+// A small scene and a tiny median-split builder (the tests must not depend on sahara-builders).
 
 /// 300 random small triangles in `[-1, 1]^3`, a 10x10 grid of quads (200 triangles sharing
 /// edges and vertices) as a back wall, and a large ground quad.

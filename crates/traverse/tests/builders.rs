@@ -8,7 +8,7 @@
 //! does; it takes minutes).
 
 use rayon::prelude::*;
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
 use sahara_scene::{Catalog, Procedural};
 use sahara_traverse::{brute, scalar, NoStats};

@@ -7,7 +7,7 @@
 //! and backend agreed with the (equally wrong) brute force. Exact rational Möller–Trumbore on
 //! these `f32` inputs puts every ray below well inside its triangle.
 
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_geom::{Ray, Triangle, Vec3A};
 use sahara_traverse::{brute, scalar, Backend, Bvh4, Bvh8, NoStats};
 

@@ -6,7 +6,7 @@
 //! the workspace),
 //! the binary tree is a binned SAH build (see `wide_common::sah_bvh`, leaves of at most
 //! `$SAHARA_BENCH_LEAF` = 4 triangles) or, with `SAHARA_BENCH_BUILDER=<name>`, the
-//! `sahara-build` registry's builder of that name (for example `sweep`); the camera is the "framed" one of BASELINES.md:
+//! `sahara-builders` registry's builder of that name (for example `sweep`); the camera is the "framed" one of BASELINES.md:
 //! eye = centre + normalize(0, 0.1, 1) · 1.2 · |diagonal|, looking at the centre, 45° vertical
 //! field of view, 1024 × 768 rays through pixel centres.
 
@@ -160,8 +160,9 @@ fn bunny_primary_rays() {
     let (bvh, builder) = match std::env::var("SAHARA_BENCH_BUILDER") {
         Ok(name) => {
             let input =
-                sahara_build::BuildInput::new(&tris, sahara_build::CostModel::default()).unwrap();
-            let b = sahara_build::registry::by_name(&name)
+                sahara_builders::BuildInput::new(&tris, sahara_builders::CostModel::default())
+                    .unwrap();
+            let b = sahara_builders::registry::by_name(&name)
                 .unwrap_or_else(|| panic!("no builder {name:?} in the registry"));
             (b.build(&input).unwrap(), b.describe())
         }
@@ -232,8 +233,9 @@ fn scene_ray_file() {
     let rounds: usize = std::env::var("SAHARA_BENCH_ROUNDS").map_or(5, |s| s.parse().unwrap());
     let scene = sahara_scene::Catalog::discover().load(&scene).unwrap();
     let tris = scene.triangles();
-    let input = sahara_build::BuildInput::new(&tris, sahara_build::CostModel::default()).unwrap();
-    let bvh = sahara_build::registry::by_name(&builder)
+    let input =
+        sahara_builders::BuildInput::new(&tris, sahara_builders::CostModel::default()).unwrap();
+    let bvh = sahara_builders::registry::by_name(&builder)
         .unwrap_or_else(|| panic!("no builder {builder:?} in the registry"))
         .build(&input)
         .unwrap();

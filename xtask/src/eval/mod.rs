@@ -172,7 +172,7 @@ const QUICK_BUILDERS: &[&str] = &[
 ];
 
 fn default_builders(quick: bool) -> Vec<String> {
-    sahara_build::registry::entries()
+    sahara_builders::registry::entries()
         .into_iter()
         .filter(|e| !e.small_inputs_only)
         .filter(|e| !quick || QUICK_BUILDERS.contains(&e.name))
@@ -184,7 +184,7 @@ fn default_builders(quick: bool) -> Vec<String> {
 /// user did not name: a named builder always runs).
 fn impractical(builder: &str, triangles: usize, named: bool) -> bool {
     !named
-        && sahara_build::registry::entries()
+        && sahara_builders::registry::entries()
             .iter()
             .any(|e| e.name == builder && e.max_practical_triangles.is_some_and(|m| triangles > m))
 }
@@ -632,7 +632,7 @@ fn adaptive_runs(
         return Ok(runs);
     }
     let b = util::builder(builder)?;
-    let input = sahara_build::BuildInput::new(tris, sahara_build::CostModel::default())?;
+    let input = sahara_builders::BuildInput::new(tris, sahara_builders::CostModel::default())?;
     let (t, r) = util::with_threads(threads, || util::time_runs(1, || b.build(&input)))?;
     r?;
     Ok(if t[0] > 5.0 { 1 } else { runs })

@@ -340,7 +340,7 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
         .iter()
         .copied()
         .filter(|b| {
-            sahara_build::registry::entries()
+            sahara_builders::registry::entries()
                 .iter()
                 .any(|e| e.name == b.as_str() && e.spatial)
         })

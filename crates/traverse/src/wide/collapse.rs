@@ -410,7 +410,7 @@ impl<const W: usize> Collapser<'_, W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sahara_build::{registry, BuildInput, CostModel};
+    use sahara_builders::{registry, BuildInput, CostModel};
     use sahara_geom::{rng::Pcg32, Vec3A};
 
     fn soup(n: usize, seed: u64) -> Vec<Triangle> {

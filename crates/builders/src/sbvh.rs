@@ -25,8 +25,8 @@
 //! children exactly, and every leaf box touches each triangle it references.
 //!
 //! ```
-//! use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
-//! use sahara_build::{BuildInput, Builder};
+//! use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
+//! use sahara_builders::{BuildInput, Builder};
 //! use sahara_geom::{Triangle, Vec3A};
 //! use sahara_metrics::CostModel;
 //!

@@ -8,7 +8,7 @@
 //! model), their only output a [`Bvh`].
 //!
 //! ```
-//! use sahara_build::{registry, BuildInput};
+//! use sahara_builders::{registry, BuildInput};
 //! use sahara_geom::{Triangle, Vec3A};
 //! use sahara_metrics::CostModel;
 //!

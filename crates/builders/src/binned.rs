@@ -17,8 +17,8 @@
 //! temporary subtrees.
 //!
 //! ```
-//! use sahara_build::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
-//! use sahara_build::{BuildInput, Builder};
+//! use sahara_builders::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
+//! use sahara_builders::{BuildInput, Builder};
 //! use sahara_geom::{Triangle, Vec3A};
 //! use sahara_metrics::{sah, CostModel};
 //!

@@ -1,8 +1,8 @@
 //! Tests of the temporary-subtree SAH builder with spatial splits.
 
-use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
-use sahara_build::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
-use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
+use sahara_builders::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
+use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 

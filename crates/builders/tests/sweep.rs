@@ -2,10 +2,10 @@
 
 mod tsah_support;
 
-use sahara_build::sweep::{
+use sahara_builders::sweep::{
     sorted_orders, split_orders, sweep_cost, Marks, SweepBuilder, SweepConfig, SweepScratch,
 };
-use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_geom::{Aabb, Triangle};
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;

@@ -1,8 +1,8 @@
 //! Tests of the SBVH builder (spatial splits).
 
-use sahara_build::binned::{BinnedBuilder, BinnedConfig};
-use sahara_build::sbvh::{sbvh_cost_only, ObjectSplitMethod, SbvhBuilder, SbvhConfig};
-use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::binned::{BinnedBuilder, BinnedConfig};
+use sahara_builders::sbvh::{sbvh_cost_only, ObjectSplitMethod, SbvhBuilder, SbvhConfig};
+use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};

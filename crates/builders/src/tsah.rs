@@ -24,9 +24,9 @@
 //! defaults.
 //!
 //! ```
-//! use sahara_build::tsah::{TsahBuilder, TsahConfig};
-//! use sahara_build::sweep::SweepBuilder;
-//! use sahara_build::{BuildInput, Builder};
+//! use sahara_builders::tsah::{TsahBuilder, TsahConfig};
+//! use sahara_builders::sweep::SweepBuilder;
+//! use sahara_builders::{BuildInput, Builder};
 //! use sahara_geom::{Triangle, Vec3A};
 //! use sahara_metrics::{sah, CostModel};
 //!

@@ -1,7 +1,7 @@
 //! Measurements on real scenes (ignored by default; run in release):
 //!
 //! ```text
-//! cargo test --release -p sahara-build --test sbvh_scenes -- --ignored --nocapture
+//! cargo test --release -p sahara-builders --test sbvh_scenes -- --ignored --nocapture
 //! ```
 //!
 //! The scenes are the files of the scene catalog (`sahara_scene::Catalog::discover`: the
@@ -12,7 +12,7 @@
 
 mod spatial_support;
 
-use sahara_build::{registry, BuildInput};
+use sahara_builders::{registry, BuildInput};
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::Catalog;
 use std::time::Instant;

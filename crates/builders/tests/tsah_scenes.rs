@@ -1,6 +1,6 @@
 //! Measurements of the sweep, temporary-subtree and look-ahead builders on the shared scenes
 //! (all `#[ignore]`: run them in release mode, for example
-//! `cargo test --release -p sahara-build --test tsah_scenes -- --ignored --nocapture measure`).
+//! `cargo test --release -p sahara-builders --test tsah_scenes -- --ignored --nocapture measure`).
 //!
 //! Environment: `SAHARA_SHARED_SCENES` (a folder, the only one searched when set; else the
 //! scene catalog's folders: `SAHARA_SCENES`, then `../shared/scenes`), `TSAH_SCENES`
@@ -14,8 +14,8 @@ mod tsah_support;
 use std::path::Path;
 use std::time::Instant;
 
-use sahara_build::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
-use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
+use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::{Catalog, Origin};
@@ -288,7 +288,7 @@ fn measure_popov_configs() {
         eprintln!("set POPOV_CONFIGS");
         return;
     };
-    let configs: Vec<sahara_build::popov::PopovConfig> = serde_json::from_str(&json).unwrap();
+    let configs: Vec<sahara_builders::popov::PopovConfig> = serde_json::from_str(&json).unwrap();
     let scenes = list("TSAH_SCENES", "sibenik,sponza_dabrovic");
     let epo = std::env::var("TSAH_EPO").is_ok();
     eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
@@ -301,7 +301,7 @@ fn measure_popov_configs() {
         let (base, _) = measure(registry::by_name("sweep").unwrap().as_ref(), &tris, epo);
         print_row(scene, tris.len(), "sweep", &base, None);
         for cfg in &configs {
-            let b = sahara_build::popov::PopovBuilder::new(*cfg);
+            let b = sahara_builders::popov::PopovBuilder::new(*cfg);
             let (row, _) = measure(&b, &tris, epo);
             print_row(scene, tris.len(), &cfg.describe(), &row, Some(&base));
         }

@@ -10,12 +10,12 @@
 //! `SAHARA_VERIFY_ALL=1` (what `cargo xtask verify` sets) every shared scene file. With
 //! `SAHARA_RECORD_TREE_HASHES=1` the rows of the cases run are written instead of checked
 //! (run it in release mode: `SAHARA_RECORD_TREE_HASHES=1 SAHARA_VERIFY_ALL=1 cargo test
-//! --release -p sahara-build --test tree_hashes -- --nocapture`).
+//! --release -p sahara-builders --test tree_hashes -- --nocapture`).
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use sahara_build::{registry, BuildInput, CostModel};
+use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_scene::{Catalog, Procedural, DEFAULT_SEED};
 

@@ -61,9 +61,9 @@
 //! scenes its SAH is below SBVH's everywhere; see `docs/builders-classic.md`.)
 //!
 //! ```
-//! use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
-//! use sahara_build::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
-//! use sahara_build::{BuildInput, Builder};
+//! use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
+//! use sahara_builders::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
+//! use sahara_builders::{BuildInput, Builder};
 //! use sahara_geom::{rng::Pcg32, Triangle, Vec3A};
 //! use sahara_metrics::{sah, CostModel};
 //!

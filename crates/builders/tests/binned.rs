@@ -1,7 +1,7 @@
 //! Tests of the binned SAH builder and its cost-only entry point.
 
-use sahara_build::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
-use sahara_build::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
+use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};

@@ -2,7 +2,7 @@
 //! default; run in release):
 //!
 //! ```text
-//! cargo test --release -p sahara-build --test tsah_spatial_scenes -- --ignored --nocapture
+//! cargo test --release -p sahara-builders --test tsah_spatial_scenes -- --ignored --nocapture
 //! ```
 //!
 //! Scenes are the files of the scene catalog (`sahara_scene::Catalog::discover`: the folders
@@ -13,9 +13,9 @@
 
 mod spatial_support;
 
-use sahara_build::sbvh::{SbvhBuilder, SbvhConfig};
-use sahara_build::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
-use sahara_build::{BuildInput, Builder};
+use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
+use sahara_builders::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
+use sahara_builders::{BuildInput, Builder};
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::Catalog;
 use std::time::Instant;

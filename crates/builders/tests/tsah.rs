@@ -2,9 +2,9 @@
 
 mod tsah_support;
 
-use sahara_build::sweep::{SweepBuilder, SweepConfig};
-use sahara_build::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
-use sahara_build::{registry, BuildInput, Builder};
+use sahara_builders::sweep::{SweepBuilder, SweepConfig};
+use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
+use sahara_builders::{registry, BuildInput, Builder};
 use sahara_geom::{Aabb, Triangle};
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;

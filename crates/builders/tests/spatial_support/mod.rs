@@ -3,7 +3,7 @@
 //! `tsah_spatial_scenes.rs`).
 #![allow(dead_code)]
 
-use sahara_build::Bvh;
+use sahara_builders::Bvh;
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_scene::Catalog;

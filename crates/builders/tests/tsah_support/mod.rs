@@ -1,7 +1,7 @@
 //! Inputs and checks shared by the sweep, temporary-subtree and look-ahead builder tests.
 #![allow(dead_code)]
 
-use sahara_build::{BuildInput, Builder, Bvh};
+use sahara_builders::{BuildInput, Builder, Bvh};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::CostModel;

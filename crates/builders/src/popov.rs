@@ -25,8 +25,8 @@
 //! leaves; with `depth = 1` it is exactly the top-k temporary-subtree builder.
 //!
 //! ```
-//! use sahara_build::popov::{PopovBuilder, PopovConfig};
-//! use sahara_build::{BuildInput, Builder};
+//! use sahara_builders::popov::{PopovBuilder, PopovConfig};
+//! use sahara_builders::{BuildInput, Builder};
 //! use sahara_geom::{Triangle, Vec3A};
 //! use sahara_metrics::CostModel;
 //!

@@ -25,8 +25,8 @@
 //! [`sorted_orders`] produces the orders of any subset.
 //!
 //! ```
-//! use sahara_build::sweep::{sorted_orders, sweep_cost, Marks, SweepBuilder, SweepConfig, SweepScratch};
-//! use sahara_build::{BuildInput, Builder};
+//! use sahara_builders::sweep::{sorted_orders, sweep_cost, Marks, SweepBuilder, SweepConfig, SweepScratch};
+//! use sahara_builders::{BuildInput, Builder};
 //! use sahara_geom::{Triangle, Vec3A};
 //! use sahara_metrics::{sah, CostModel};
 //!

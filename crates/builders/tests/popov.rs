@@ -2,10 +2,10 @@
 
 mod tsah_support;
 
-use sahara_build::popov::{Frontier, PopovBuilder, PopovConfig};
-use sahara_build::sweep::{SweepBuilder, SweepConfig};
-use sahara_build::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
-use sahara_build::{registry, BuildInput, Builder};
+use sahara_builders::popov::{Frontier, PopovBuilder, PopovConfig};
+use sahara_builders::sweep::{SweepBuilder, SweepConfig};
+use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
+use sahara_builders::{registry, BuildInput, Builder};
 use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
