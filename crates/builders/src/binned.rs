@@ -37,11 +37,13 @@
 //! assert!((c - sah(&bvh, &input.cost)).abs() <= 1e-9 * c);
 //! ```
 
-use crate::common::{
-    half_area, imbalance, BinMap, Fragment, PAR_CHUNK, PAR_NODE_THRESHOLD, PAR_SPLIT_THRESHOLD,
-};
 use crate::registry::Entry;
-use crate::{BuildError, BuildInput, Builder, Bvh};
+use crate::split::binned::{self as bins, Bin};
+use crate::split::{
+    half_area, imbalance, ranks_before, sort_by_key, BinMap, Suffix, PAR_CHUNK, PAR_NODE_THRESHOLD,
+};
+use crate::topdown::{self, Step, TopDown};
+use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use rayon::prelude::*;
 use sahara_geom::{Aabb, Vec3A};
 use sahara_metrics::CostModel;
@@ -91,9 +93,12 @@ impl BinnedConfig {
             ..Self::DEFAULT
         }
     }
+}
 
-    /// Checks the ranges of the fields.
-    pub fn check(&self) -> Result<(), BuildError> {
+impl Strategy for BinnedConfig {
+    const NAME: &'static str = "binned";
+
+    fn check(&self) -> Result<(), BuildError> {
         if self.bins < 2 {
             return Err(BuildError::InvalidConfig(format!(
                 "binned: bins must be at least 2 (got {})",
@@ -107,62 +112,30 @@ impl BinnedConfig {
         }
         Ok(())
     }
+
+    fn describe(&self) -> String {
+        format!(
+            "binned SAH (Wald 2007): {} centroid bins per axis, leaves <= {}",
+            self.bins, self.max_leaf_size
+        )
+    }
+
+    fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
+        let rule = BinnedRule::new(input, self);
+        let mut prims: Vec<u32> = (0..input.len() as u32).collect();
+        let nb = rule.bounds_of(&prims);
+        let root = BinTask {
+            prims: &mut prims,
+            nb,
+            depth: 0,
+        };
+        Ok(topdown::build(&rule, root, false))
+    }
 }
 
 /// The binned SAH builder (Wald 2007). Parallel on rayon; the tree does not depend on the
 /// number of threads.
-#[derive(Clone, Debug)]
-pub struct BinnedBuilder {
-    /// The configuration.
-    pub config: BinnedConfig,
-    name: &'static str,
-}
-
-impl BinnedBuilder {
-    /// A builder with `config`, named `"binned"`.
-    pub fn new(config: BinnedConfig) -> Self {
-        Self::named("binned", config)
-    }
-
-    /// A builder with `config` and a registry name of your choice.
-    pub fn named(name: &'static str, config: BinnedConfig) -> Self {
-        Self { config, name }
-    }
-}
-
-impl Default for BinnedBuilder {
-    fn default() -> Self {
-        Self::new(BinnedConfig::default())
-    }
-}
-
-impl Builder for BinnedBuilder {
-    fn name(&self) -> &str {
-        self.name
-    }
-
-    fn describe(&self) -> String {
-        let c = &self.config;
-        format!(
-            "binned SAH (Wald 2007): {} centroid bins per axis, leaves <= {}",
-            c.bins, c.max_leaf_size
-        )
-    }
-
-    fn build(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
-        self.config.check()?;
-        if input.is_empty() {
-            return Ok(Bvh::empty());
-        }
-        let ctx = Ctx::new(input, &self.config);
-        let mut prims: Vec<u32> = (0..input.len() as u32).collect();
-        let mut out = Fragment::default();
-        let mut scratch = Scratch::new(self.config.bins);
-        let nb = node_bounds(&ctx, &prims);
-        build_node(&ctx, &mut prims, nb, 0, &mut scratch, Some(&mut out));
-        Ok(out.into_bvh(false))
-    }
-}
+pub type BinnedBuilder = Configured<BinnedConfig>;
 
 /// The SAH cost `c(T)` (Eq. 1, relative to the area of the subset's bounds) of the tree that
 /// [`BinnedBuilder`] with `config` would build over the primitives `prims`, computed bottom-up
@@ -183,10 +156,14 @@ pub fn binned_cost_only(input: &BuildInput, prims: &mut [u32], config: &BinnedCo
     if prims.is_empty() {
         return 0.0;
     }
-    let ctx = Ctx::new(input, config);
-    let mut scratch = Scratch::new(config.bins);
-    let nb = node_bounds(&ctx, prims);
-    build_node(&ctx, prims, nb, 0, &mut scratch, None)
+    let rule = BinnedRule::new(input, config);
+    let nb = rule.bounds_of(prims);
+    let root = BinTask {
+        prims,
+        nb,
+        depth: 0,
+    };
+    topdown::cost(&rule, root, &input.cost, &mut Scratch::default()).cost
 }
 
 /// Registry entries of this module: `binned` (32 bins), `binned-8` and `binned-128`.
@@ -219,66 +196,32 @@ pub fn registry_entries() -> Vec<Entry> {
     ]
 }
 
-struct Ctx<'a> {
+/// The rule: the cheapest binned plane by Eq. 2, a leaf when small enough and no plane is
+/// cheaper, an object median split where no plane separates anything (or below
+/// [`BinnedConfig::fallback_depth`]).
+struct BinnedRule<'a> {
     bounds: &'a [Aabb],
     centroids: &'a [Vec3A],
     cost: CostModel,
-    cfg: &'a BinnedConfig,
+    cfg: BinnedConfig,
 }
 
-impl<'a> Ctx<'a> {
-    fn new(input: &'a BuildInput, cfg: &'a BinnedConfig) -> Self {
-        Self {
-            bounds: input.bounds(),
-            centroids: input.centroids(),
-            cost: input.cost,
-            cfg,
-        }
-    }
+/// A node still to build: its primitives (partitioned in place), their bounds, its depth.
+struct BinTask<'a> {
+    prims: &'a mut [u32],
+    nb: Bounds,
+    depth: usize,
 }
 
-#[derive(Clone, Copy)]
-struct Bin {
-    bounds: Aabb,
-    centroids: Aabb,
-    count: u32,
-}
-
-const EMPTY_BIN: Bin = Bin {
-    bounds: Aabb::EMPTY,
-    centroids: Aabb::EMPTY,
-    count: 0,
-};
-
-impl Bin {
-    #[inline]
-    fn merge(&mut self, other: &Bin) {
-        self.bounds.grow_aabb(&other.bounds);
-        self.centroids.grow_aabb(&other.centroids);
-        self.count += other.count;
-    }
-}
-
-/// Per-task scratch memory: three axes of bins and the suffix sweep; for small nodes, the
-/// primitives sorted by bin and their suffix bounds.
+/// Scratch memory: three axes of bins and the suffix sweep; for small nodes, the primitives
+/// sorted by bin and their suffix bounds.
+#[derive(Default)]
 struct Scratch {
     bins: Vec<Bin>,
-    right_area: Vec<f64>,
-    right_count: Vec<u32>,
-    sorted: Vec<(u32, u32)>,
+    right: Vec<(f32, u32)>,
+    pairs: Vec<(u32, u32)>,
+    keys: Vec<u64>,
     suffix: Vec<Aabb>,
-}
-
-impl Scratch {
-    fn new(k: usize) -> Self {
-        Self {
-            bins: vec![EMPTY_BIN; 3 * k],
-            right_area: vec![0.0; k],
-            right_count: vec![0; k],
-            sorted: Vec::new(),
-            suffix: Vec::new(),
-        }
-    }
 }
 
 /// The bounds of a set of primitives and of their centroids.
@@ -286,6 +229,15 @@ impl Scratch {
 struct Bounds {
     bounds: Aabb,
     centroids: Aabb,
+}
+
+impl From<Bin> for Bounds {
+    fn from(b: Bin) -> Self {
+        Bounds {
+            bounds: b.bounds,
+            centroids: b.centroids,
+        }
+    }
 }
 
 /// The best plane found by binning, with the bounds of both sides.
@@ -301,346 +253,295 @@ struct Plane {
     right: Bounds,
 }
 
-/// Bounds of the primitives and of their centroids (computed once, at the root; children get
-/// theirs from the bins).
-fn node_bounds(ctx: &Ctx, prims: &[u32]) -> Bounds {
-    let fold = |prims: &[u32]| {
-        let mut b = Aabb::EMPTY;
-        let mut c = Aabb::EMPTY;
-        for &p in prims {
-            b.grow_aabb(&ctx.bounds[p as usize]);
-            c.grow(ctx.centroids[p as usize]);
-        }
-        (b, c)
-    };
-    let (bounds, centroids) = if prims.len() >= PAR_NODE_THRESHOLD {
-        prims.par_chunks(PAR_CHUNK).map(fold).reduce(
-            || (Aabb::EMPTY, Aabb::EMPTY),
-            |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+/// A plane under consideration: its score `A_l n_l + A_r n_r` (which orders the planes of one
+/// node as Eq. 2 does, without a division per plane) and its tie-break.
+#[derive(Clone, Copy)]
+struct Rated {
+    axis: usize,
+    plane: usize,
+    score: f64,
+    imbalance: usize,
+}
+
+impl Rated {
+    #[inline]
+    fn better_than(&self, o: &Rated) -> bool {
+        ranks_before(
+            self.score,
+            (self.imbalance, self.axis, self.plane),
+            o.score,
+            (o.imbalance, o.axis, o.plane),
         )
-    } else {
-        fold(prims)
-    };
-    Bounds { bounds, centroids }
-}
-
-/// Fills `bins` (3 axes of `K`) for the axes that have a mapping. Exact whatever the chunking:
-/// counts are integer sums, bounds are min/max.
-fn fill_bins(ctx: &Ctx, prims: &[u32], maps: &[Option<BinMap>; 3], bins: &mut [Bin]) {
-    let k = ctx.cfg.bins;
-    let fill = |prims: &[u32], bins: &mut [Bin]| {
-        for &p in prims {
-            let c = ctx.centroids[p as usize];
-            let b = &ctx.bounds[p as usize];
-            for (axis, map) in maps.iter().enumerate() {
-                if let Some(map) = map {
-                    let bin = &mut bins[axis * k + map.bin(c[axis])];
-                    bin.count += 1;
-                    bin.bounds.grow_aabb(b);
-                    bin.centroids.grow(c);
-                }
-            }
-        }
-    };
-    bins.fill(EMPTY_BIN);
-    if prims.len() >= PAR_NODE_THRESHOLD {
-        let merged = prims
-            .par_chunks(PAR_CHUNK)
-            .map(|chunk| {
-                let mut local = vec![EMPTY_BIN; 3 * k];
-                fill(chunk, &mut local);
-                local
-            })
-            .reduce(
-                || vec![EMPTY_BIN; 3 * k],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(&b) {
-                        x.merge(y);
-                    }
-                    a
-                },
-            );
-        bins.copy_from_slice(&merged);
-    } else {
-        fill(prims, bins);
     }
 }
 
-/// The plane of least Eq. 2 cost over the three axes. Exact ties go to the more balanced
-/// plane (smaller `n_l² + n_r²`), then to the lower axis, then to the lower plane. `None`
-/// when no plane has primitives on both sides.
-fn best_plane(ctx: &Ctx, prims: &[u32], cb: &Aabb, s: &mut Scratch) -> Option<Plane> {
-    let k = ctx.cfg.bins;
-    let maps = [0, 1, 2].map(|a| BinMap::new(cb.min[a], cb.max[a], k));
-    if maps.iter().all(Option::is_none) {
-        return None;
+impl<'a> BinnedRule<'a> {
+    fn new(input: &'a BuildInput, cfg: &BinnedConfig) -> Self {
+        Self {
+            bounds: input.bounds(),
+            centroids: input.centroids(),
+            cost: input.cost,
+            cfg: *cfg,
+        }
     }
-    if 2 * prims.len() <= k {
-        best_plane_small(ctx, prims, &maps, s)
-    } else {
-        best_plane_binned(ctx, prims, &maps, s)
-    }
-}
 
-/// [`best_plane`] by the bins.
-fn best_plane_binned(
-    ctx: &Ctx,
-    prims: &[u32],
-    maps: &[Option<BinMap>; 3],
-    s: &mut Scratch,
-) -> Option<Plane> {
-    let k = ctx.cfg.bins;
-    fill_bins(ctx, prims, maps, &mut s.bins);
-    // (axis, plane, map, score, balance). The score `A_l n_l + A_r n_r` orders the planes of
-    // one node as Eq. 2 does, without a division per plane.
-    let mut best: Option<(usize, usize, BinMap, f64, u128)> = None;
-    for (axis, map) in maps.iter().enumerate() {
-        let Some(map) = *map else { continue };
-        let bins = &s.bins[axis * k..(axis + 1) * k];
-        let mut rb = Aabb::EMPTY;
-        let mut rc = 0u32;
-        for i in (1..k).rev() {
-            rb.grow_aabb(&bins[i].bounds);
-            rc += bins[i].count;
-            s.right_area[i] = half_area(&rb);
-            s.right_count[i] = rc;
-        }
-        let mut lb = Aabb::EMPTY;
-        let mut lc = 0u32;
-        for i in 1..k {
-            lb.grow_aabb(&bins[i - 1].bounds);
-            lc += bins[i - 1].count;
-            let rc = s.right_count[i];
-            if lc == 0 || rc == 0 {
-                continue;
+    /// Bounds of the primitives and of their centroids (computed at the root and for median
+    /// splits; other children get theirs from the bins).
+    fn bounds_of(&self, prims: &[u32]) -> Bounds {
+        let fold = |prims: &[u32]| {
+            let mut b = Aabb::EMPTY;
+            let mut c = Aabb::EMPTY;
+            for &p in prims {
+                b.grow_aabb(&self.bounds[p as usize]);
+                c.grow(self.centroids[p as usize]);
             }
-            let score = half_area(&lb) * lc as f64 + s.right_area[i] * rc as f64;
-            let better = match best {
-                None => true,
-                Some((.., bs, bb)) => {
-                    score < bs || (score == bs && imbalance(lc as usize, rc as usize) < bb)
-                }
-            };
-            if better {
-                let balance = imbalance(lc as usize, rc as usize);
-                best = Some((axis, i, map, score, balance));
-            }
-        }
-    }
-    let (axis, plane, map, ..) = best?;
-    let bins = &s.bins[axis * k..(axis + 1) * k];
-    let mut left = EMPTY_BIN;
-    let mut right = EMPTY_BIN;
-    for b in &bins[..plane] {
-        left.merge(b);
-    }
-    for b in &bins[plane..] {
-        right.merge(b);
-    }
-    let side = |b: Bin| Bounds {
-        bounds: b.bounds,
-        centroids: b.centroids,
-    };
-    Some(Plane {
-        axis,
-        plane,
-        map,
-        n_left: left.count as usize,
-        left: side(left),
-        right: side(right),
-    })
-}
-
-/// [`best_plane`] for nodes with fewer primitives than half the bins: most bins are empty,
-/// so instead of sweeping `K` bins the primitives are sorted by bin and only the planes
-/// between two occupied bins are rated. A plane between occupied bins `a < b` makes the same
-/// partition, with the same bounds and the same score, as every plane `a + 1 ..= b` of the
-/// full sweep, of which the full sweep keeps the first (`a + 1`, because ties need a strictly
-/// better score or balance to win): the result is identical to the full sweep's.
-fn best_plane_small(
-    ctx: &Ctx,
-    prims: &[u32],
-    maps: &[Option<BinMap>; 3],
-    s: &mut Scratch,
-) -> Option<Plane> {
-    let n = prims.len();
-    // (axis, plane, map, score, balance)
-    let mut best: Option<(usize, usize, BinMap, f64, u128)> = None;
-    for (axis, map) in maps.iter().enumerate() {
-        let Some(map) = *map else { continue };
-        s.sorted.clear();
-        s.sorted.extend(
-            prims
-                .iter()
-                .map(|&p| (map.bin(ctx.centroids[p as usize][axis]) as u32, p)),
-        );
-        s.sorted.sort_unstable();
-        s.suffix.clear();
-        s.suffix.resize(n, Aabb::EMPTY);
-        let mut rb = Aabb::EMPTY;
-        for i in (1..n).rev() {
-            rb.grow_aabb(&ctx.bounds[s.sorted[i].1 as usize]);
-            s.suffix[i] = rb;
-        }
-        let mut lb = Aabb::EMPTY;
-        for i in 1..n {
-            lb.grow_aabb(&ctx.bounds[s.sorted[i - 1].1 as usize]);
-            if s.sorted[i].0 == s.sorted[i - 1].0 {
-                continue;
-            }
-            let score = half_area(&lb) * i as f64 + half_area(&s.suffix[i]) * (n - i) as f64;
-            let balance = imbalance(i, n - i);
-            let better = match best {
-                None => true,
-                Some((.., bs, bb)) => score < bs || (score == bs && balance < bb),
-            };
-            if better {
-                best = Some((axis, s.sorted[i - 1].0 as usize + 1, map, score, balance));
-            }
-        }
-    }
-    let (axis, plane, map, ..) = best?;
-    let mut left = EMPTY_BIN;
-    let mut right = EMPTY_BIN;
-    for &p in prims {
-        let c = ctx.centroids[p as usize];
-        let side = if map.bin(c[axis]) < plane {
-            &mut left
-        } else {
-            &mut right
+            (b, c)
         };
-        side.bounds.grow_aabb(&ctx.bounds[p as usize]);
-        side.centroids.grow(c);
-        side.count += 1;
+        let (bounds, centroids) = if prims.len() >= PAR_NODE_THRESHOLD {
+            prims.par_chunks(PAR_CHUNK).map(fold).reduce(
+                || (Aabb::EMPTY, Aabb::EMPTY),
+                |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+            )
+        } else {
+            fold(prims)
+        };
+        Bounds { bounds, centroids }
     }
-    let side = |b: Bin| Bounds {
-        bounds: b.bounds,
-        centroids: b.centroids,
-    };
-    Some(Plane {
-        axis,
-        plane,
-        map,
-        n_left: left.count as usize,
-        left: side(left),
-        right: side(right),
-    })
-}
 
-/// Moves the primitives of bins `< plane` to the front; returns how many there are.
-fn partition(ctx: &Ctx, prims: &mut [u32], p: &Plane) -> usize {
-    let goes_left = |q: u32| p.map.bin(ctx.centroids[q as usize][p.axis]) < p.plane;
-    let (mut i, mut j) = (0usize, prims.len());
-    loop {
-        while i < j && goes_left(prims[i]) {
-            i += 1;
+    /// The plane of least Eq. 2 cost over the three axes (ties: see [`ranks_before`]); `None`
+    /// when no plane has primitives on both sides.
+    fn best_plane(&self, prims: &[u32], cb: &Aabb, s: &mut Scratch) -> Option<Plane> {
+        let k = self.cfg.bins;
+        let maps = bins::maps(cb, k);
+        if maps.iter().all(Option::is_none) {
+            return None;
         }
-        while i < j && !goes_left(prims[j - 1]) {
+        if 2 * prims.len() <= k {
+            self.best_plane_small(prims, &maps, s)
+        } else {
+            self.best_plane_binned(prims, &maps, s)
+        }
+    }
+
+    /// [`best_plane`](Self::best_plane) by the bins.
+    fn best_plane_binned(
+        &self,
+        prims: &[u32],
+        maps: &[Option<BinMap>; 3],
+        s: &mut Scratch,
+    ) -> Option<Plane> {
+        let k = self.cfg.bins;
+        s.bins.resize(3 * k, Bin::EMPTY);
+        s.right.resize(k, (0.0, 0));
+        bins::fill_par(&mut s.bins, k, maps, prims, self.bounds, self.centroids);
+        let mut best: Option<Rated> = None;
+        for (axis, map) in maps.iter().enumerate() {
+            if map.is_none() {
+                continue;
+            }
+            let axis_bins = &s.bins[axis * k..(axis + 1) * k];
+            bins::sweep_planes(axis_bins, &mut s.right, |plane, lb, lc, ra: &f32, rc| {
+                let cand = Rated {
+                    axis,
+                    plane,
+                    score: half_area(lb) * lc as f64 + ra.area() * rc as f64,
+                    imbalance: imbalance(lc, rc),
+                };
+                if best.as_ref().is_none_or(|b| cand.better_than(b)) {
+                    best = Some(cand);
+                }
+            });
+        }
+        let Rated { axis, plane, .. } = best?;
+        let (left, right) = bins::sides(&s.bins[axis * k..(axis + 1) * k], plane);
+        Some(Plane {
+            axis,
+            plane,
+            map: maps[axis].expect("a mapped axis"),
+            n_left: left.count as usize,
+            left: left.into(),
+            right: right.into(),
+        })
+    }
+
+    /// [`best_plane`](Self::best_plane) for nodes with fewer primitives than half the bins:
+    /// most bins are empty, so instead of sweeping `K` bins the primitives are sorted by bin
+    /// and only the planes between two occupied bins are rated. A plane between occupied bins
+    /// `a < b` makes the same partition, with the same bounds and the same score, as every
+    /// plane `a + 1 ..= b` of the full sweep, of which the full sweep keeps the first
+    /// (`a + 1`, because ties need a strictly better rank to win): the result is identical
+    /// to the full sweep's.
+    fn best_plane_small(
+        &self,
+        prims: &[u32],
+        maps: &[Option<BinMap>; 3],
+        s: &mut Scratch,
+    ) -> Option<Plane> {
+        let n = prims.len();
+        let mut best: Option<(Rated, BinMap)> = None;
+        for (axis, map) in maps.iter().enumerate() {
+            let Some(map) = *map else { continue };
+            s.pairs.clear();
+            s.pairs.extend(
+                prims
+                    .iter()
+                    .map(|&p| (map.bin(self.centroids[p as usize][axis]) as u32, p)),
+            );
+            s.pairs.sort_unstable();
+            let bin_of = |i: usize| s.pairs[i].0 as usize;
+            let prim_of = |i: usize| s.pairs[i].1 as usize;
+            s.suffix.clear();
+            s.suffix.resize(n, Aabb::EMPTY);
+            let mut rb = Aabb::EMPTY;
+            for i in (1..n).rev() {
+                rb.grow_aabb(&self.bounds[prim_of(i)]);
+                s.suffix[i] = rb;
+            }
+            let mut lb = Aabb::EMPTY;
+            for i in 1..n {
+                lb.grow_aabb(&self.bounds[prim_of(i - 1)]);
+                if bin_of(i) == bin_of(i - 1) {
+                    continue;
+                }
+                let cand = Rated {
+                    axis,
+                    plane: bin_of(i - 1) + 1,
+                    score: half_area(&lb) * i as f64 + half_area(&s.suffix[i]) * (n - i) as f64,
+                    imbalance: imbalance(i, n - i),
+                };
+                if best.as_ref().is_none_or(|(b, _)| cand.better_than(b)) {
+                    best = Some((cand, map));
+                }
+            }
+        }
+        let (Rated { axis, plane, .. }, map) = best?;
+        let mut left = Bin::EMPTY;
+        let mut right = Bin::EMPTY;
+        for &p in prims {
+            let c = self.centroids[p as usize];
+            let side = if map.bin(c[axis]) < plane {
+                &mut left
+            } else {
+                &mut right
+            };
+            side.add(&self.bounds[p as usize], c);
+        }
+        Some(Plane {
+            axis,
+            plane,
+            map,
+            n_left: left.count as usize,
+            left: left.into(),
+            right: right.into(),
+        })
+    }
+
+    /// Moves the primitives of bins `< plane` to the front; returns how many there are.
+    fn partition(&self, prims: &mut [u32], p: &Plane) -> usize {
+        let goes_left = |q: u32| p.map.bin(self.centroids[q as usize][p.axis]) < p.plane;
+        let (mut i, mut j) = (0usize, prims.len());
+        loop {
+            while i < j && goes_left(prims[i]) {
+                i += 1;
+            }
+            while i < j && !goes_left(prims[j - 1]) {
+                j -= 1;
+            }
+            if i >= j {
+                return i;
+            }
+            prims.swap(i, j - 1);
+            i += 1;
             j -= 1;
         }
-        if i >= j {
-            return i;
+    }
+
+    /// Object median split on the largest axis of the centroid bounds, by (centroid, index).
+    fn median_split(&self, prims: &mut [u32], cb: &Aabb, s: &mut Scratch) -> usize {
+        let axis = cb.largest_axis();
+        sort_by_key(&mut s.keys, prims.len(), |i| {
+            (self.centroids[prims[i] as usize][axis], prims[i])
+        });
+        for (p, &k) in prims.iter_mut().zip(&s.keys) {
+            *p = k as u32;
         }
-        prims.swap(i, j - 1);
-        i += 1;
-        j -= 1;
+        prims.len() / 2
     }
 }
 
-/// Object median split on the largest axis of the centroid bounds: sorts by (centroid,
-/// index), a total order, so the result does not depend on the sort algorithm.
-fn median_split(ctx: &Ctx, prims: &mut [u32], cb: &Aabb) -> usize {
-    let axis = cb.largest_axis();
-    let key = |p: u32| ctx.centroids[p as usize][axis];
-    prims.sort_unstable_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
-    prims.len() / 2
-}
+impl<'a> TopDown for BinnedRule<'a> {
+    type Task = BinTask<'a>;
+    type Scratch = Scratch;
 
-/// Builds (or, with `out == None`, only costs) the subtree over `prims`, whose bounds are
-/// `nb`; returns its cost `c(n)` relative to the node's area.
-fn build_node(
-    ctx: &Ctx,
-    prims: &mut [u32],
-    nb: Bounds,
-    depth: usize,
-    scratch: &mut Scratch,
-    out: Option<&mut Fragment>,
-) -> f64 {
-    let n = prims.len();
-    let leaf_cost = ctx.cost.leaf_cost(n);
-    let area = half_area(&nb.bounds);
-    let can_leaf = n <= ctx.cfg.max_leaf_size;
-    let plane = if n == 1 || depth >= ctx.cfg.fallback_depth {
-        None
-    } else {
-        best_plane(ctx, prims, &nb.centroids, scratch)
-    };
-    let make_leaf = match &plane {
-        _ if n == 1 => true,
-        Some(p) => {
-            let (nl, nr) = (p.n_left, n - p.n_left);
-            let cost = ctx.cost.split_cost(
-                area,
-                half_area(&p.left.bounds),
-                nl,
-                half_area(&p.right.bounds),
-                nr,
-            );
-            can_leaf && cost >= leaf_cost
-        }
-        None => can_leaf,
-    };
-    if make_leaf {
-        if let Some(out) = out {
-            out.push_leaf(&nb.bounds, prims.iter().copied());
-        }
-        return leaf_cost;
+    fn size(&self, t: &BinTask<'a>) -> usize {
+        t.prims.len()
     }
-    let (mid, lb, rb) = match plane {
-        Some(p) => (partition(ctx, prims, &p), p.left, p.right),
-        None => {
-            let mid = median_split(ctx, prims, &nb.centroids);
-            let lb = node_bounds(ctx, &prims[..mid]);
-            let rb = node_bounds(ctx, &prims[mid..]);
-            (mid, lb, rb)
-        }
-    };
-    debug_assert!(mid > 0 && mid < n);
-    let (left, right) = prims.split_at_mut(mid);
-    let parallel = n >= PAR_SPLIT_THRESHOLD;
-    let d = depth + 1;
-    let (c_l, c_r) = match out {
-        Some(out) => {
-            let me = out.push_inner(&nb.bounds);
-            if parallel {
-                let mut right_out = Fragment::default();
-                let res = rayon::join(
-                    || build_node(ctx, left, lb, d, scratch, Some(&mut *out)),
-                    || {
-                        let mut s = Scratch::new(ctx.cfg.bins);
-                        build_node(ctx, right, rb, d, &mut s, Some(&mut right_out))
-                    },
+
+    fn split(&self, t: BinTask<'a>, scratch: &mut Scratch) -> Step<BinTask<'a>> {
+        let n = t.prims.len();
+        let nb = t.nb;
+        let can_leaf = n <= self.cfg.max_leaf_size;
+        let plane = if n == 1 || t.depth >= self.cfg.fallback_depth {
+            None
+        } else {
+            self.best_plane(t.prims, &nb.centroids, scratch)
+        };
+        let make_leaf = match &plane {
+            _ if n == 1 => true,
+            Some(p) => {
+                let (nl, nr) = (p.n_left, n - p.n_left);
+                let cost = self.cost.split_cost(
+                    half_area(&nb.bounds),
+                    half_area(&p.left.bounds),
+                    nl,
+                    half_area(&p.right.bounds),
+                    nr,
                 );
-                out.set_right_here(me);
-                out.append(right_out);
-                res
-            } else {
-                let l = build_node(ctx, left, lb, d, scratch, Some(&mut *out));
-                out.set_right_here(me);
-                (l, build_node(ctx, right, rb, d, scratch, Some(out)))
+                can_leaf && cost >= self.cost.leaf_cost(n)
             }
+            None => can_leaf,
+        };
+        if make_leaf {
+            return Step::Leaf {
+                bounds: nb.bounds,
+                task: t,
+            };
         }
-        None if parallel => rayon::join(
-            || build_node(ctx, left, lb, d, scratch, None),
-            || build_node(ctx, right, rb, d, &mut Scratch::new(ctx.cfg.bins), None),
-        ),
-        None => (
-            build_node(ctx, left, lb, d, scratch, None),
-            build_node(ctx, right, rb, d, scratch, None),
-        ),
-    };
-    ctx.cost
-        .inner_cost(area, half_area(&lb.bounds), c_l, half_area(&rb.bounds), c_r)
+        let prims = t.prims;
+        let (mid, lb, rb) = match plane {
+            Some(p) => (self.partition(prims, &p), p.left, p.right),
+            None => {
+                let mid = self.median_split(prims, &nb.centroids, scratch);
+                let lb = self.bounds_of(&prims[..mid]);
+                let rb = self.bounds_of(&prims[mid..]);
+                (mid, lb, rb)
+            }
+        };
+        debug_assert!(mid > 0 && mid < n);
+        let (left, right) = prims.split_at_mut(mid);
+        let depth = t.depth + 1;
+        Step::Split {
+            bounds: nb.bounds,
+            left: BinTask {
+                prims: left,
+                nb: lb,
+                depth,
+            },
+            right: BinTask {
+                prims: right,
+                nb: rb,
+                depth,
+            },
+        }
+    }
+
+    fn leaf_refs(&self, t: &BinTask<'a>, out: &mut Vec<u32>) {
+        out.extend_from_slice(t.prims);
+    }
+
+    fn parallel_threshold(&self) -> usize {
+        2048
+    }
 }
 
 #[cfg(test)]
@@ -663,15 +564,15 @@ mod tests {
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();
         for bins in [16, 32, 128] {
             let cfg = BinnedConfig::with_bins(bins);
-            let ctx = Ctx::new(&input, &cfg);
-            let mut s = Scratch::new(bins);
+            let rule = BinnedRule::new(&input, &cfg);
+            let mut s = Scratch::default();
             for trial in 0..200 {
                 let n = 2 + trial % (bins / 2 - 1);
                 let prims: Vec<u32> = (0..n).map(|_| rng.below(64)).collect();
-                let cb = node_bounds(&ctx, &prims).centroids;
-                let maps = [0, 1, 2].map(|a| BinMap::new(cb.min[a], cb.max[a], bins));
-                let a = best_plane_small(&ctx, &prims, &maps, &mut s);
-                let b = best_plane_binned(&ctx, &prims, &maps, &mut s);
+                let cb = rule.bounds_of(&prims).centroids;
+                let maps = bins::maps(&cb, bins);
+                let a = rule.best_plane_small(&prims, &maps, &mut s);
+                let b = rule.best_plane_binned(&prims, &maps, &mut s);
                 match (a, b) {
                     (None, None) => {}
                     (Some(a), Some(b)) => {

@@ -50,7 +50,7 @@ use crate::registry::Entry;
 use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
 use crate::tsah::engine::{self, offer_top_k, EngineParams, LocalNode, Rater};
 use crate::tsah::Candidates;
-use crate::{BuildError, BuildInput, Builder};
+use crate::{BuildError, BuildInput, Configured, Strategy};
 
 /// How the frontier nodes of the look-ahead are costed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -119,9 +119,12 @@ impl PopovConfig {
         greedy_below: 8,
         max_leaf_size: 8,
     };
+}
 
-    /// Checks the ranges of the fields.
-    pub fn validate(&self) -> Result<(), BuildError> {
+impl Strategy for PopovConfig {
+    const NAME: &'static str = "popov";
+
+    fn check(&self) -> Result<(), BuildError> {
         if self.depth == 0 || self.k == 0 || self.max_leaf_size == 0 {
             return Err(BuildError::InvalidConfig(
                 "popov: depth, k and max_leaf_size must be at least 1".into(),
@@ -130,8 +133,7 @@ impl PopovConfig {
         Ok(())
     }
 
-    /// A one-line description.
-    pub fn describe(&self) -> String {
+    fn describe(&self) -> String {
         format!(
             "look-ahead SAH (after Popov et al.), depth {}, top-{} per level, frontier {}, greedy at <= {} prims, max leaf {}",
             self.depth,
@@ -144,49 +146,9 @@ impl PopovConfig {
             self.max_leaf_size
         )
     }
-}
 
-/// The look-ahead SAH builder and its hybrid.
-#[derive(Clone, Debug)]
-pub struct PopovBuilder {
-    /// Its configuration.
-    pub config: PopovConfig,
-    name: String,
-}
-
-impl Default for PopovBuilder {
-    fn default() -> Self {
-        Self::new(PopovConfig::default())
-    }
-}
-
-impl PopovBuilder {
-    /// A builder with the given configuration, named `"popov"`.
-    pub fn new(config: PopovConfig) -> Self {
-        Self::named("popov", config)
-    }
-
-    /// A builder with the given configuration and [`Builder::name`].
-    pub fn named(name: impl Into<String>, config: PopovConfig) -> Self {
-        Self {
-            config,
-            name: name.into(),
-        }
-    }
-}
-
-impl Builder for PopovBuilder {
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn describe(&self) -> String {
-        self.config.describe()
-    }
-
-    fn build(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
-        self.config.validate()?;
-        let c = &self.config;
+    fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
+        let c = self;
         let params = EngineParams {
             candidates: Candidates::TopK {
                 k: c.k,
@@ -207,6 +169,9 @@ impl Builder for PopovBuilder {
         engine::build(input, &params, &rater)
     }
 }
+
+/// The look-ahead SAH builder and its hybrid (named `"popov"` by [`Configured::new`]).
+pub type PopovBuilder = Configured<PopovConfig>;
 
 /// Registry entries of this module.
 pub fn registry_entries() -> Vec<Entry> {

@@ -52,7 +52,7 @@ use sahara_bvh::Bvh;
 
 use crate::registry::Entry;
 use crate::sweep::{self, Marks, SplitCandidate, SubtreeCost, SweepScratch};
-use crate::{BuildError, BuildInput, Builder};
+use crate::{BuildError, BuildInput, Configured, Strategy};
 use binned_cost::{binned_cost, BinnedScratch};
 use engine::{EngineParams, LocalNode, Rater};
 
@@ -151,9 +151,12 @@ impl TsahConfig {
         always_include_greedy_best: true,
         max_leaf_size: 8,
     };
+}
 
-    /// Checks the ranges of the fields.
-    pub fn validate(&self) -> Result<(), BuildError> {
+impl Strategy for TsahConfig {
+    const NAME: &'static str = "tsah";
+
+    fn check(&self) -> Result<(), BuildError> {
         let bad = |m: &str| Err(BuildError::InvalidConfig(format!("tsah: {m}")));
         if self.max_leaf_size == 0 {
             return bad("max_leaf_size must be at least 1");
@@ -173,8 +176,7 @@ impl TsahConfig {
         Ok(())
     }
 
-    /// A one-line description.
-    pub fn describe(&self) -> String {
+    fn describe(&self) -> String {
         let cands = match self.candidates {
             Candidates::Exhaustive => "all sweep candidates".to_string(),
             Candidates::TopK { k, per_axis } => {
@@ -196,63 +198,26 @@ impl TsahConfig {
             self.max_leaf_size
         )
     }
-}
 
-/// The temporary-subtree SAH builder of Wodniok & Goesele.
-#[derive(Clone, Debug)]
-pub struct TsahBuilder {
-    /// Its configuration.
-    pub config: TsahConfig,
-    name: String,
-}
-
-impl Default for TsahBuilder {
-    fn default() -> Self {
-        Self::new(TsahConfig::default())
-    }
-}
-
-impl TsahBuilder {
-    /// A builder with the given configuration, named `"tsah"`.
-    pub fn new(config: TsahConfig) -> Self {
-        Self::named("tsah", config)
-    }
-
-    /// A builder with the given configuration and [`Builder::name`].
-    pub fn named(name: impl Into<String>, config: TsahConfig) -> Self {
-        Self {
-            config,
-            name: name.into(),
-        }
-    }
-}
-
-impl Builder for TsahBuilder {
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn describe(&self) -> String {
-        self.config.describe()
-    }
-
-    fn build(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
-        self.config.validate()?;
-        let c = &self.config;
+    fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
         let params = EngineParams {
-            candidates: c.candidates,
-            include_greedy: c.always_include_greedy_best,
-            greedy_below: c.greedy_below,
-            max_leaf_size: c.max_leaf_size,
+            candidates: self.candidates,
+            include_greedy: self.always_include_greedy_best,
+            greedy_below: self.greedy_below,
+            max_leaf_size: self.max_leaf_size,
         };
         let rater = TemporaryRater {
             cost: input.cost,
-            max_leaf: c.max_leaf_size,
-            temporary: c.temporary,
+            max_leaf: self.max_leaf_size,
+            temporary: self.temporary,
         };
         engine::build(input, &params, &rater)
     }
 }
+
+/// The temporary-subtree SAH builder of Wodniok & Goesele (named `"tsah"` by
+/// [`Configured::new`]).
+pub type TsahBuilder = Configured<TsahConfig>;
 
 /// Registry entries of this module.
 pub fn registry_entries() -> Vec<Entry> {

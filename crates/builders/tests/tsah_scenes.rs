@@ -15,7 +15,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
-use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::{registry, BuildInput, Builder, Bvh, Strategy};
 use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::{Catalog, Origin};

@@ -123,8 +123,22 @@ fn sah_of(results: &[(String, f64, usize)], builder: &str) -> f64 {
     results.iter().find(|r| r.0 == builder).unwrap().1
 }
 
-/// Every practical builder, or those named in `SAHARA_VERIFY_BUILDERS` (comma-separated).
+/// The example builder of `crates/builders/examples/median_split.rs`, defined outside the
+/// builders crate and added to the registry through its public registration call, so that it
+/// goes through exactly the checks of the built-in builders.
+#[allow(dead_code)]
+#[path = "../../builders/examples/median_split.rs"]
+mod median_split;
+
+fn register_example() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| median_split::register().expect("the example registers"));
+}
+
+/// Every practical builder (the example one included), or those named in
+/// `SAHARA_VERIFY_BUILDERS` (comma-separated).
 fn all_builders() -> Vec<&'static str> {
+    register_example();
     let only = std::env::var("SAHARA_VERIFY_BUILDERS").unwrap_or_default();
     registry::entries()
         .into_iter()
@@ -157,6 +171,18 @@ fn every_builder_on_every_procedural_scene() {
             }
         }
     }
+}
+
+#[test]
+fn the_example_builder_is_registered_and_checked() {
+    let names = all_builders();
+    assert!(names.contains(&"median"), "{names:?}");
+    // A second registration of the name is refused.
+    assert!(median_split::register().is_err());
+    let scene = Procedural::Soup.scene(3_000, 2);
+    let results = check_scene("soup", &scene, &["median", "sweep"]);
+    // The median split is a valid but poor tree: the greedy sweep is well below it.
+    assert!(results[1].1 < 0.95 * results[0].1, "{results:?}");
 }
 
 #[test]

@@ -14,30 +14,31 @@
 use sahara_geom::{Aabb, Vec3A};
 use sahara_metrics::CostModel;
 
+use crate::split::binned::{self, Bin};
+use crate::split::{imbalance, ranks_before, BinMap, Suffix};
 use crate::sweep::SubtreeCost;
-use crate::tsah::engine::BinMap;
+use crate::topdown::{self, Step, TopDown};
 
 /// Reusable buffers of [`binned_cost`].
 #[derive(Debug, Default)]
 pub(crate) struct BinnedScratch {
-    tasks: Vec<Task>,
-    values: Vec<SubtreeCost>,
-    counts: Vec<u32>,
-    boxes: Vec<Aabb>,
-    right_areas: Vec<f32>,
+    bins: Vec<Bin>,
+    right: Vec<(f32, u32)>,
 }
 
-#[derive(Clone, Copy, Debug)]
-enum Task {
-    /// Decide the node over `prims[start..end]`, with its bounds and centroid bounds.
-    Visit {
-        start: usize,
-        end: usize,
-        bounds: Aabb,
-        centroids: Aabb,
-    },
-    /// Combine the two costs on top of the value stack into their parent's (of that area).
-    Combine(f64),
+/// A node of the cost-only build: its boxes, their bounds and their centroids' bounds.
+pub(crate) struct BoxTask<'a> {
+    seg: &'a mut [Aabb],
+    bounds: Aabb,
+    centroids: Aabb,
+}
+
+/// The rule: `min(K, n)` bins, Eq. 2 at the planes, the sweep builder's leaf rule.
+struct BinnedRule<'a> {
+    bins: usize,
+    cost: CostModel,
+    max_leaf: usize,
+    boxes: std::marker::PhantomData<fn(&'a mut [Aabb])>,
 }
 
 /// The best plane found so far.
@@ -48,32 +49,19 @@ struct Best {
     axis: usize,
     plane: usize,
     left: Aabb,
-    right: Aabb,
 }
 
 impl Best {
     /// Lower cost, then more balanced, then lower axis, then lower plane.
     #[inline]
     fn better_than(&self, o: &Best) -> bool {
-        if self.cost < o.cost {
-            return true;
-        }
-        if self.cost > o.cost {
-            return false;
-        }
-        match self.cost.total_cmp(&o.cost) {
-            std::cmp::Ordering::Less => true,
-            std::cmp::Ordering::Greater => false,
-            std::cmp::Ordering::Equal => {
-                (self.imbalance, self.axis, self.plane) < (o.imbalance, o.axis, o.plane)
-            }
-        }
+        ranks_before(
+            self.cost,
+            (self.imbalance, self.axis, self.plane),
+            o.cost,
+            (o.imbalance, o.axis, o.plane),
+        )
     }
-}
-
-#[inline]
-fn centroid(b: &Aabb) -> Vec3A {
-    b.centroid()
 }
 
 /// `c(T)` of the binned SAH tree over the primitives whose boxes are `prims` (permuted in
@@ -85,86 +73,63 @@ pub(crate) fn binned_cost(
     max_leaf: usize,
     scratch: &mut BinnedScratch,
 ) -> SubtreeCost {
-    let n = prims.len();
-    if n == 0 {
-        return SubtreeCost {
-            cost: 0.0,
-            area: 0.0,
-        };
+    if prims.is_empty() {
+        return SubtreeCost::ZERO;
     }
-    let bins = bins.max(2);
-    let max_leaf = max_leaf.max(1);
-    let BinnedScratch {
-        tasks,
-        values,
-        counts,
-        boxes,
-        right_areas,
-    } = scratch;
-    counts.clear();
-    counts.resize(3 * bins, 0);
-    boxes.clear();
-    boxes.resize(3 * bins, Aabb::EMPTY);
-    right_areas.clear();
-    right_areas.resize(bins, 0.0);
-    tasks.clear();
-    values.clear();
-    let (root, root_c) = bounds_of(prims);
-    tasks.push(Task::Visit {
-        start: 0,
-        end: n,
-        bounds: root,
-        centroids: root_c,
-    });
-    while let Some(task) = tasks.pop() {
-        let (s, e, node, cb) = match task {
-            Task::Combine(area) => {
-                let r = values.pop().expect("right cost");
-                let l = values.pop().expect("left cost");
-                values.push(SubtreeCost {
-                    cost: cost.inner_cost(area, l.area, l.cost, r.area, r.cost),
-                    area,
-                });
-                continue;
-            }
-            Task::Visit {
-                start,
-                end,
-                bounds,
-                centroids,
-            } => (start, end, bounds, centroids),
-        };
-        let seg = &mut prims[s..e];
-        let m = seg.len();
-        let area = node.half_area() as f64;
+    let rule = BinnedRule {
+        bins: bins.max(2),
+        cost: *cost,
+        max_leaf: max_leaf.max(1),
+        boxes: std::marker::PhantomData,
+    };
+    let (bounds, centroids) = bounds_of(prims);
+    let task = BoxTask {
+        seg: prims,
+        bounds,
+        centroids,
+    };
+    topdown::cost(&rule, task, cost, scratch)
+}
+
+impl<'a> TopDown for BinnedRule<'a> {
+    type Task = BoxTask<'a>;
+    type Scratch = BinnedScratch;
+
+    fn size(&self, t: &BoxTask<'a>) -> usize {
+        t.seg.len()
+    }
+
+    fn split(&self, t: BoxTask<'a>, scratch: &mut BinnedScratch) -> Step<BoxTask<'a>> {
+        let m = t.seg.len();
+        let area = t.bounds.half_area() as f64;
         if m == 1 {
-            values.push(SubtreeCost {
-                cost: cost.leaf_cost(1),
-                area,
-            });
-            continue;
+            return Step::Leaf {
+                bounds: t.bounds,
+                task: t,
+            };
         }
-        let k = bins.min(m);
-        let maps: [Option<BinMap>; 3] =
-            std::array::from_fn(|a| BinMap::new(cb.min[a], cb.max[a], k));
+        let k = self.bins.min(m);
+        let maps = binned::maps(&t.centroids, k);
         let best = if maps.iter().all(Option::is_none) {
             None
         } else {
-            best_plane(seg, &maps, k, area, cost, counts, boxes, right_areas)
+            self.best_plane(t.seg, &maps, k, area, scratch)
         };
-        let leaf_ok = m <= max_leaf && best.as_ref().is_none_or(|b| b.cost >= cost.leaf_cost(m));
+        let cost = &self.cost;
+        let leaf_ok =
+            m <= self.max_leaf && best.as_ref().is_none_or(|b| b.0.cost >= cost.leaf_cost(m));
         if leaf_ok {
-            values.push(SubtreeCost {
-                cost: cost.leaf_cost(m),
-                area,
-            });
-            continue;
+            return Step::Leaf {
+                bounds: t.bounds,
+                task: t,
+            };
         }
+        let seg = t.seg;
         let (mid, lb, lc, rb, rc) = match best {
-            Some(b) => {
+            Some((b, right)) => {
                 let map = maps[b.axis].expect("binned axis");
                 let (mid, lc, rc) = partition(seg, |c| map.bin(c[b.axis]) < b.plane);
-                (mid, b.left, lc, b.right, rc)
+                (mid, b.left, lc, right, rc)
             }
             None => {
                 // Every centroid coincides: split the list in half.
@@ -175,21 +140,69 @@ pub(crate) fn binned_cost(
             }
         };
         debug_assert!(mid > 0 && mid < m);
-        tasks.push(Task::Combine(area));
-        tasks.push(Task::Visit {
-            start: s + mid,
-            end: e,
-            bounds: rb,
-            centroids: rc,
-        });
-        tasks.push(Task::Visit {
-            start: s,
-            end: s + mid,
-            bounds: lb,
-            centroids: lc,
-        });
+        let (l, r) = seg.split_at_mut(mid);
+        Step::Split {
+            bounds: t.bounds,
+            left: BoxTask {
+                seg: l,
+                bounds: lb,
+                centroids: lc,
+            },
+            right: BoxTask {
+                seg: r,
+                bounds: rb,
+                centroids: rc,
+            },
+        }
     }
-    values.pop().expect("root cost")
+
+    fn leaf_refs(&self, _: &BoxTask<'a>, _: &mut Vec<u32>) {
+        unreachable!("a cost-only rule")
+    }
+}
+
+impl BinnedRule<'_> {
+    /// Bins the node on every axis with a map and returns its cheapest plane and the bounds
+    /// of that plane's right side (`None` when no plane separates anything).
+    fn best_plane(
+        &self,
+        seg: &[Aabb],
+        maps: &[Option<BinMap>; 3],
+        k: usize,
+        area: f64,
+        s: &mut BinnedScratch,
+    ) -> Option<(Best, Aabb)> {
+        s.bins.resize(3 * k, Bin::EMPTY);
+        s.right.resize(k, (0.0, 0));
+        binned::fill(&mut s.bins, k, maps, seg.iter().map(|b| (b, b.centroid())));
+        let mut best: Option<Best> = None;
+        for (a, map) in maps.iter().enumerate() {
+            if map.is_none() {
+                continue;
+            }
+            let bins = &s.bins[a * k..(a + 1) * k];
+            binned::sweep_planes(bins, &mut s.right, |j, left, nl, right: &f32, nr| {
+                let c = self
+                    .cost
+                    .split_cost(area, left.half_area() as f64, nl, right.area(), nr);
+                let cand = Best {
+                    cost: c,
+                    imbalance: imbalance(nl, nr),
+                    axis: a,
+                    plane: j,
+                    left: *left,
+                };
+                if best.as_ref().is_none_or(|b| cand.better_than(b)) {
+                    best = Some(cand);
+                }
+            });
+        }
+        // The right box of the winner (only its area was kept during the sweep).
+        best.map(|b| {
+            let bins = &s.bins[b.axis * k..(b.axis + 1) * k];
+            (b, binned::sides(bins, b.plane).1.bounds)
+        })
+    }
 }
 
 /// Bounds and centroid bounds of some boxes.
@@ -198,95 +211,9 @@ fn bounds_of(prims: &[Aabb]) -> (Aabb, Aabb) {
     let mut c = Aabb::EMPTY;
     for p in prims {
         b.grow_aabb(p);
-        c.grow(centroid(p));
+        c.grow(p.centroid());
     }
     (b, c)
-}
-
-/// Bins the node on every axis with a map and returns its cheapest plane (`None` when no plane
-/// separates anything).
-#[allow(clippy::too_many_arguments)]
-fn best_plane(
-    seg: &[Aabb],
-    maps: &[Option<BinMap>; 3],
-    k: usize,
-    area: f64,
-    cost: &CostModel,
-    counts: &mut [u32],
-    boxes: &mut [Aabb],
-    right_areas: &mut [f32],
-) -> Option<Best> {
-    let m = seg.len();
-    let counts = &mut counts[..3 * k];
-    let boxes = &mut boxes[..3 * k];
-    counts.fill(0);
-    boxes.fill(Aabb::EMPTY);
-    // The three bin indices at once: clamping in floating point before truncating gives
-    // exactly `BinMap::bin` (the operand is never negative). Axes without a map bin
-    // everything into their bin 0 and are not evaluated.
-    let lo = Vec3A::from_array(std::array::from_fn(|a| maps[a].map_or(0.0, |m| m.min)));
-    let scale = Vec3A::from_array(std::array::from_fn(|a| maps[a].map_or(0.0, |m| m.scale)));
-    let top = Vec3A::splat((k - 1) as f32);
-    for p in seg {
-        let v = ((centroid(p) - lo) * scale).min(top);
-        let [bx, by, bz] = v.to_array();
-        for (a, b) in [bx as usize, k + by as usize, 2 * k + bz as usize]
-            .into_iter()
-            .enumerate()
-        {
-            debug_assert!(b < (a + 1) * k);
-            counts[b] += 1;
-            boxes[b].grow_aabb(p);
-        }
-    }
-    let mut best: Option<Best> = None;
-    for (a, map) in maps.iter().enumerate() {
-        if map.is_none() {
-            continue;
-        }
-        let cnt = &counts[a * k..(a + 1) * k];
-        let bx = &boxes[a * k..(a + 1) * k];
-        let mut acc = Aabb::EMPTY;
-        for j in (1..k).rev() {
-            acc.grow_aabb(&bx[j]);
-            right_areas[j] = acc.half_area();
-        }
-        let mut left = Aabb::EMPTY;
-        let mut nl = 0usize;
-        for j in 1..k {
-            left.grow_aabb(&bx[j - 1]);
-            nl += cnt[j - 1] as usize;
-            if nl == 0 || nl == m {
-                continue;
-            }
-            let c = cost.split_cost(
-                area,
-                left.half_area() as f64,
-                nl,
-                right_areas[j] as f64,
-                m - nl,
-            );
-            let cand = Best {
-                cost: c,
-                imbalance: (2 * nl).abs_diff(m),
-                axis: a,
-                plane: j,
-                left,
-                right: Aabb::EMPTY,
-            };
-            if best.as_ref().is_none_or(|b| cand.better_than(b)) {
-                best = Some(cand);
-            }
-        }
-    }
-    // The right box of the winner (only its area was kept during the sweep).
-    if let Some(b) = &mut best {
-        let bx = &boxes[b.axis * k..(b.axis + 1) * k];
-        b.right = bx[b.plane..]
-            .iter()
-            .fold(Aabb::EMPTY, |acc, x| acc.union(x));
-    }
-    best
 }
 
 /// In-place partition by a predicate on the centroid; returns the number of boxes on the left
@@ -297,7 +224,7 @@ fn partition(seg: &mut [Aabb], left: impl Fn(Vec3A) -> bool) -> (usize, Aabb, Aa
     let mut i = 0;
     let mut j = seg.len();
     while i < j {
-        let c = centroid(&seg[i]);
+        let c = seg[i].centroid();
         if left(c) {
             lc.grow(c);
             i += 1;

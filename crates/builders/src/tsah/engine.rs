@@ -1,17 +1,19 @@
-//! The top-down driver shared by the temporary-subtree builders ([`crate::tsah`]) and the
-//! look-ahead builders ([`crate::popov`]): at every node, sweep the three sorted orders
-//! (Eq. 2 at every position), select candidate splits, rate each with a [`Rater`] in parallel,
-//! take the cheapest (deterministic tie-break), decide leaf or split, recurse. Nodes at or below
-//! `greedy_below` primitives are built by the plain sweep rule.
+//! The top-down rule shared by the temporary-subtree builders ([`crate::tsah`]) and the
+//! look-ahead builders ([`crate::popov`]), as a [`TopDown`] hook: at every node, sweep the
+//! three sorted orders (Eq. 2 at every position), select candidate splits, rate each with a
+//! [`Rater`] (in parallel for large nodes), take the cheapest (deterministic tie-break), decide
+//! leaf or split. Nodes at or below `greedy_below` primitives are split by the plain sweep rule
+//! ([`Greedy`]).
 
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Mutex;
 
 use rayon::prelude::*;
 use sahara_bvh::Bvh;
 use sahara_geom::{Aabb, Vec3A};
 
-use crate::sweep::{self, BuildCtx, Job, SplitCandidate, Storage};
+use crate::split::{offer, BinMap, Marks};
+use crate::sweep::{self, Greedy, Job, JobStorage, SplitCandidate};
+use crate::topdown::{self, Step, TopDown};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput};
 
@@ -25,8 +27,7 @@ pub(crate) trait Rater: Sync {
 }
 
 /// Nodes at least this large rate their candidates in parallel; smaller ones rate them on the
-/// current thread with the thread's reusable scratch (raters must not call into rayon for
-/// such nodes).
+/// current thread with the driver's scratch.
 const PAR_RATE: usize = 1024;
 
 /// How candidates are chosen and when to stop.
@@ -57,67 +58,64 @@ impl LocalNode {
     }
 }
 
-struct Env<'a, R: Rater> {
-    ctx: BuildCtx<'a>,
+/// The rule: [`Greedy`] for small nodes, rated candidates above.
+struct Rated<'a, R: Rater> {
+    greedy: Greedy<'a>,
+    centroids: &'a [Vec3A],
     params: EngineParams,
     rater: &'a R,
     /// Global id -> local id of the node being rated (nodes rated concurrently are disjoint).
     local_of: Vec<AtomicU32>,
-    /// One rating scratch per worker thread, for nodes rated serially.
-    scratch: Vec<Mutex<R::Scratch>>,
 }
 
-/// Builds the tree.
+/// Builds the tree over a non-empty input.
 pub(crate) fn build<R: Rater>(
     input: &BuildInput,
     params: &EngineParams,
     rater: &R,
 ) -> Result<Bvh, BuildError> {
-    if input.is_empty() {
-        return Ok(Bvh::empty());
-    }
-    sweep::check_size(input)?;
-    let env = Env {
-        ctx: BuildCtx::new(
-            input,
-            params.max_leaf_size,
-            sweep::SweepConfig::DEFAULT.parallel_threshold,
-        ),
+    let marks = Marks::new(input.len());
+    let rule = Rated {
+        greedy: Greedy {
+            bounds: input.bounds(),
+            cost: input.cost,
+            max_leaf: params.max_leaf_size.max(1),
+            marks: &marks,
+            parallel_threshold: sweep::SweepConfig::DEFAULT.parallel_threshold,
+        },
+        centroids: input.centroids(),
         params: *params,
         rater,
         local_of: (0..input.len()).map(|_| AtomicU32::new(0)).collect(),
-        scratch: (0..rayon::current_num_threads() + 1)
-            .map(|_| Mutex::new(R::Scratch::default()))
-            .collect(),
     };
-    let mut storage = Storage::new(input.centroids());
-    {
-        let job = storage.root_job();
-        rayon::scope(|s| drive(s, job, &env));
-    }
-    Ok(storage.finish())
+    let mut storage = JobStorage::new(input.len(), input.centroids());
+    Ok(topdown::build(&rule, storage.root(), false))
 }
 
-fn drive<'s, R: Rater>(scope: &rayon::Scope<'s>, mut job: Job<'s>, env: &'s Env<'s, R>) {
-    let greedy_below = env.params.greedy_below;
-    loop {
-        if job.len() <= greedy_below.max(1) {
-            sweep::drive(scope, job, &env.ctx);
-            return;
-        }
-        let Some((l, r)) = node(job, env) else {
-            return;
-        };
-        let (small, large) = if l.len() <= r.len() { (l, r) } else { (r, l) };
-        if small.len() <= greedy_below {
-            sweep::drive(scope, small, &env.ctx);
+impl<'a, R: Rater> TopDown for Rated<'a, R> {
+    type Task = Job<'a>;
+    type Scratch = R::Scratch;
+
+    fn size(&self, job: &Job<'a>) -> usize {
+        job.len()
+    }
+
+    fn split(&self, job: Job<'a>, scratch: &mut R::Scratch) -> Step<Job<'a>> {
+        if job.len() <= self.params.greedy_below.max(1) {
+            self.greedy.decide(job)
         } else {
-            scope.spawn(move |s| drive(s, small, env));
+            self.node(job, scratch)
         }
-        job = large;
+    }
+
+    fn leaf_refs(&self, job: &Job<'a>, out: &mut Vec<u32>) {
+        out.extend_from_slice(job.orders[0]);
+    }
+
+    fn parallel_threshold(&self) -> usize {
+        PAR_RATE
     }
 }
-
 /// Collects candidate splits during the sweep of a node.
 enum Collector {
     All(Vec<SplitCandidate>),
@@ -190,19 +188,7 @@ impl Collector {
 /// Keeps the `k` best candidates, best first.
 #[inline]
 pub(crate) fn offer_top_k(list: &mut Vec<SplitCandidate>, k: usize, c: SplitCandidate, n: usize) {
-    if list.len() == k {
-        match list.last() {
-            Some(worst) if c.better_than(worst, n) => {
-                list.pop();
-            }
-            _ => return,
-        }
-    }
-    let at = list
-        .iter()
-        .position(|x| c.better_than(x, n))
-        .unwrap_or(list.len());
-    list.insert(at, c);
+    offer(list, k, c, |a, b| a.better_than(b, n));
 }
 
 /// The split positions of `bins` equal-width bins over the centroid extent of a sorted order:
@@ -225,134 +211,104 @@ fn bin_positions(order: &[u32], centroids: &[Vec3A], axis: usize, bins: usize) -
     out
 }
 
-/// Equal-width bins over `[min, max]` (`None` when the interval is flat or too thin for a
-/// finite scale).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct BinMap {
-    pub min: f32,
-    pub scale: f32,
-    bins: usize,
-}
-
-impl BinMap {
-    pub fn new(min: f32, max: f32, bins: usize) -> Option<Self> {
-        let extent = max - min;
-        if extent.is_nan() || extent <= 0.0 || bins < 2 {
-            return None;
+impl<'a, R: Rater> Rated<'a, R> {
+    /// One node of the paper's builder: candidates, ratings, leaf or split.
+    fn node(&self, job: Job<'a>, scratch: &mut R::Scratch) -> Step<Job<'a>> {
+        let g = &self.greedy;
+        let n = job.len();
+        if n == 1 {
+            let bounds = g.bounds[job.orders[0][0] as usize];
+            return Step::Leaf { bounds, task: job };
         }
-        let scale = bins as f32 / extent;
-        if !scale.is_finite() || scale <= 0.0 {
-            return None;
+        let orders = [&*job.orders[0], &*job.orders[1], &*job.orders[2]];
+        let mut collector = Collector::new(&self.params.candidates, orders, self.centroids);
+        let mut greedy = SplitCandidate::fallback(n);
+        let mut node_bounds = Aabb::EMPTY;
+        for (axis, order) in orders.iter().enumerate() {
+            node_bounds = sweep::sweep_axis(g.bounds, order, axis, job.areas, &g.cost, |c| {
+                if c.better_than(&greedy, n) {
+                    greedy = c;
+                }
+                collector.offer(c, n);
+            });
         }
-        Some(Self { min, scale, bins })
-    }
+        let mut cands = collector.finish();
+        if (self.params.include_greedy || cands.is_empty())
+            && !cands
+                .iter()
+                .any(|c| c.axis == greedy.axis && c.pos == greedy.pos)
+        {
+            cands.push(greedy);
+        }
 
-    /// Bin of `x`, monotone in `x`, clamped to `0..bins`.
-    #[inline]
-    pub fn bin(&self, x: f32) -> usize {
-        (((x - self.min) * self.scale) as usize).min(self.bins - 1)
-    }
-}
-
-/// One node of the paper's builder: candidates, parallel ratings, leaf or split.
-fn node<'a, R: Rater>(job: Job<'a>, env: &Env<'_, R>) -> Option<(Job<'a>, Job<'a>)> {
-    let ctx = &env.ctx;
-    let n = job.len();
-    if n == 1 {
-        let b = ctx.bounds[job.orders[0][0] as usize];
-        job.make_leaf(&b);
-        return None;
-    }
-    let orders = [&*job.orders[0], &*job.orders[1], &*job.orders[2]];
-    let mut collector = Collector::new(&env.params.candidates, orders, ctx.centroids);
-    let mut greedy = SplitCandidate::fallback(n);
-    let mut node_bounds = Aabb::EMPTY;
-    for (axis, order) in orders.iter().enumerate() {
-        node_bounds = sweep::sweep_axis(ctx.bounds, order, axis, job.areas, &ctx.cost, |c| {
-            if c.better_than(&greedy, n) {
-                greedy = c;
-            }
-            collector.offer(c, n);
-        });
-    }
-    let mut cands = collector.finish();
-    if (env.params.include_greedy || cands.is_empty())
-        && !cands
-            .iter()
-            .any(|c| c.axis == greedy.axis && c.pos == greedy.pos)
-    {
-        cands.push(greedy);
-    }
-
-    let must_split = n > ctx.max_leaf;
-    let best = if must_split && cands.len() == 1 {
-        // Nothing to compare: skip the ratings.
-        cands[0]
-    } else {
-        let local = local_node(env, orders, &node_bounds);
-        let ratings: Vec<f64> = if n >= PAR_RATE {
-            cands
-                .par_iter()
-                .map_init(R::Scratch::default, |sc, c| env.rater.rate(&local, c, sc))
-                .collect()
+        let must_split = n > g.max_leaf;
+        let best = if must_split && cands.len() == 1 {
+            // Nothing to compare: skip the ratings.
+            cands[0]
         } else {
-            let slot = rayon::current_thread_index()
-                .map_or(env.scratch.len() - 1, |i| i.min(env.scratch.len() - 1));
-            match env.scratch[slot].try_lock() {
-                Ok(mut sc) => cands
+            let local = self.local_node(orders, &node_bounds);
+            let ratings: Vec<f64> = if n >= PAR_RATE {
+                cands
+                    .par_iter()
+                    .map_init(R::Scratch::default, |sc, c| self.rater.rate(&local, c, sc))
+                    .collect()
+            } else {
+                cands
                     .iter()
-                    .map(|c| env.rater.rate(&local, c, &mut sc))
-                    .collect(),
-                Err(_) => {
-                    let mut sc = R::Scratch::default();
-                    cands
-                        .iter()
-                        .map(|c| env.rater.rate(&local, c, &mut sc))
-                        .collect()
+                    .map(|c| self.rater.rate(&local, c, scratch))
+                    .collect()
+            };
+            let mut best = 0;
+            for i in 1..cands.len() {
+                let a = SplitCandidate {
+                    cost: ratings[i],
+                    ..cands[i]
+                };
+                let b = SplitCandidate {
+                    cost: ratings[best],
+                    ..cands[best]
+                };
+                if a.better_than(&b, n) {
+                    best = i;
                 }
             }
-        };
-        let mut best = 0;
-        for i in 1..cands.len() {
-            let a = SplitCandidate {
-                cost: ratings[i],
-                ..cands[i]
-            };
-            let b = SplitCandidate {
-                cost: ratings[best],
-                ..cands[best]
-            };
-            if a.better_than(&b, n) {
-                best = i;
+            if !must_split && g.cost.leaf_cost(n) <= ratings[best] {
+                return Step::Leaf {
+                    bounds: node_bounds,
+                    task: job,
+                };
             }
+            cands[best]
+        };
+        let (left, right) = job.split(best.axis, best.pos, g.marks);
+        Step::Split {
+            bounds: node_bounds,
+            left,
+            right,
         }
-        if !must_split && ctx.cost.leaf_cost(n) <= ratings[best] {
-            job.make_leaf(&node_bounds);
-            return None;
-        }
-        cands[best]
-    };
-    Some(job.split(best.axis, best.pos, &node_bounds, &ctx.marks))
-}
-
-fn local_node<R: Rater>(env: &Env<'_, R>, orders: [&[u32]; 3], node_bounds: &Aabb) -> LocalNode {
-    let ctx = &env.ctx;
-    let n = orders[0].len();
-    for (j, &g) in orders[0].iter().enumerate() {
-        env.local_of[g as usize].store(j as u32, Ordering::Relaxed);
     }
-    let relabel = |o: &[u32]| -> Vec<u32> {
-        o.iter()
-            .map(|&g| env.local_of[g as usize].load(Ordering::Relaxed))
-            .collect()
-    };
-    LocalNode {
-        bounds: orders[0].iter().map(|&g| ctx.bounds[g as usize]).collect(),
-        orders: [
-            (0..n as u32).collect(),
-            relabel(orders[1]),
-            relabel(orders[2]),
-        ],
-        area: node_bounds.half_area() as f64,
+
+    fn local_node(&self, orders: [&[u32]; 3], node_bounds: &Aabb) -> LocalNode {
+        let n = orders[0].len();
+        for (j, &g) in orders[0].iter().enumerate() {
+            self.local_of[g as usize].store(j as u32, Ordering::Relaxed);
+        }
+        let relabel = |o: &[u32]| -> Vec<u32> {
+            o.iter()
+                .map(|&g| self.local_of[g as usize].load(Ordering::Relaxed))
+                .collect()
+        };
+        LocalNode {
+            bounds: orders[0]
+                .iter()
+                .map(|&g| self.greedy.bounds[g as usize])
+                .collect(),
+            orders: [
+                (0..n as u32).collect(),
+                relabel(orders[1]),
+                relabel(orders[2]),
+            ],
+            area: node_bounds.half_area() as f64,
+        }
     }
 }

@@ -1,0 +1,279 @@
+//! The SBVH rule as a [`TopDown`] hook, shared with the spatial temporary-subtree builder
+//! ([`crate::tsah_spatial`]), which rates its candidates with temporaries built by the same
+//! rule (or by [`decide_with`] and cheaper searches).
+
+use sahara_geom::Aabb;
+use sahara_metrics::CostModel;
+
+use super::{ObjectSplitMethod, SbvhConfig};
+use crate::split::half_area;
+use crate::split::object::{
+    apply_object, bin_objects, median_split, refs_bounds, sweep_objects, ObjectCand, ObjectScratch,
+    ObjectSearch, Ref,
+};
+use crate::split::spatial::{apply_spatial, child_budgets, spatial_search, Clipper, SpatialCand};
+use crate::topdown::{Step, TopDown};
+use crate::BuildInput;
+
+/// The references of all primitives (or of a subset) with their full boxes.
+pub(crate) fn initial_refs(input: &BuildInput, prims: Option<&[u32]>) -> Vec<Ref> {
+    let b = input.bounds();
+    match prims {
+        Some(p) => p
+            .iter()
+            .map(|&prim| Ref {
+                bounds: b[prim as usize],
+                prim,
+            })
+            .collect(),
+        None => b
+            .iter()
+            .enumerate()
+            .map(|(i, &bounds)| Ref {
+                bounds,
+                prim: i as u32,
+            })
+            .collect(),
+    }
+}
+
+/// Everything a node decision needs besides the node's references.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ctx<'a> {
+    /// How primitives are cut (`None`: no spatial splits).
+    pub clipper: Option<Clipper<'a>>,
+    pub cost: CostModel,
+    pub cfg: SbvhConfig,
+    /// Half area of the root (of the whole build, also for temporary subtrees).
+    pub root_area: f64,
+}
+
+impl<'a> Ctx<'a> {
+    pub fn new(input: &'a BuildInput, cfg: SbvhConfig, root_refs: &[Ref]) -> Self {
+        Self {
+            clipper: input.clipper(),
+            cost: input.cost,
+            cfg,
+            root_area: half_area(&refs_bounds(root_refs)),
+        }
+    }
+
+    /// The same context with another configuration.
+    pub fn with_config(&self, cfg: SbvhConfig) -> Self {
+        Self { cfg, ..*self }
+    }
+
+    /// The `k` best object splits of a node with at least two references (never empty), by
+    /// the configured method.
+    pub fn object_search(
+        &self,
+        refs: &[Ref],
+        area: f64,
+        k: usize,
+        scratch: &mut ObjectScratch,
+    ) -> ObjectSearch {
+        debug_assert!(refs.len() >= 2 && k >= 1);
+        if let ObjectSplitMethod::Binned { bins } = self.cfg.object_split {
+            let cands = bin_objects(refs, area, k, bins, &self.cost, scratch);
+            if !cands.is_empty() {
+                return ObjectSearch {
+                    orders: Default::default(),
+                    cands,
+                };
+            }
+        }
+        sweep_objects(refs, area, k, &self.cost, scratch)
+    }
+
+    /// The `k` best spatial splits of a node whose duplication fits in `budget`.
+    pub fn spatial_search(
+        &self,
+        refs: &[Ref],
+        bounds: &Aabb,
+        area: f64,
+        k: usize,
+        budget: usize,
+    ) -> Vec<SpatialCand> {
+        match &self.clipper {
+            Some(c) => spatial_search(
+                c,
+                refs,
+                bounds,
+                area,
+                k,
+                budget,
+                self.cfg.spatial_bins,
+                &self.cost,
+            ),
+            None => Vec::new(),
+        }
+    }
+
+    /// The two sides of a spatial split (see [`apply_spatial`]).
+    pub fn apply_spatial(&self, refs: &[Ref], cand: &SpatialCand) -> Option<(Vec<Ref>, Vec<Ref>)> {
+        let clipper = self.clipper.as_ref()?;
+        apply_spatial(clipper, refs, cand, self.cfg.unsplitting)
+    }
+}
+
+/// True when the SBVH rule searches spatial splits at this node, given its best object split.
+pub(crate) fn spatial_allowed(
+    ctx: &Ctx,
+    best_object: &ObjectCand,
+    depth: usize,
+    budget: usize,
+) -> bool {
+    ctx.clipper.is_some()
+        && ctx.cfg.spatial_bins >= 2
+        && depth < ctx.cfg.max_spatial_depth
+        && budget > 0
+        && best_object.overlap() > ctx.cfg.alpha as f64 * ctx.root_area
+}
+
+/// What the SBVH rule does with a node.
+pub(crate) enum Decision {
+    Leaf,
+    Split(Vec<Ref>, Vec<Ref>),
+}
+
+/// The SBVH rule: the cheapest of leaf, best object split and best spatial split.
+pub(crate) fn decide(
+    ctx: &Ctx,
+    refs: &[Ref],
+    bounds: &Aabb,
+    area: f64,
+    depth: usize,
+    budget: usize,
+    scratch: &mut ObjectScratch,
+) -> Decision {
+    decide_with(
+        ctx,
+        refs,
+        bounds,
+        area,
+        depth,
+        budget,
+        |refs, area| ctx.object_search(refs, area, 1, scratch),
+        |refs, bounds, area, budget| {
+            ctx.spatial_search(refs, bounds, area, 1, budget)
+                .first()
+                .copied()
+        },
+    )
+}
+
+/// The SBVH rule with the given searches (`object(refs, area)`: the best object split first
+/// in its candidates; `spatial(refs, bounds, area, budget)`: the best spatial split, if any),
+/// which lets cost-only temporaries use cheaper searches under the same rule (see
+/// `tsah_spatial`). `ctx` gives the configuration, the cost model and the clipping.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn decide_with(
+    ctx: &Ctx,
+    refs: &[Ref],
+    bounds: &Aabb,
+    area: f64,
+    depth: usize,
+    budget: usize,
+    object: impl FnOnce(&[Ref], f64) -> ObjectSearch,
+    spatial: impl FnOnce(&[Ref], &Aabb, f64, usize) -> Option<SpatialCand>,
+) -> Decision {
+    let n = refs.len();
+    if n == 1 {
+        return Decision::Leaf;
+    }
+    let can_leaf = n <= ctx.cfg.max_leaf_size;
+    if depth >= ctx.cfg.fallback_depth {
+        if can_leaf {
+            return Decision::Leaf;
+        }
+        let (l, r) = median_split(refs);
+        return Decision::Split(l, r);
+    }
+    let search = object(refs, area);
+    let best_object = search.cands[0];
+    let spatial = if spatial_allowed(ctx, &best_object, depth, budget) {
+        spatial(refs, bounds, area, budget).filter(|s| s.cost < best_object.cost)
+    } else {
+        None
+    };
+    let best = spatial.map_or(best_object.cost, |s| s.cost);
+    if can_leaf && ctx.cost.leaf_cost(n) <= best {
+        return Decision::Leaf;
+    }
+    if let Some(s) = spatial {
+        if let Some((l, r)) = ctx.apply_spatial(refs, &s) {
+            return Decision::Split(l, r);
+        }
+    }
+    let (l, r) = apply_object(refs, &search, &best_object);
+    Decision::Split(l, r)
+}
+
+/// A node of a spatial-split build: its references, depth and duplication budget.
+pub(crate) struct SbvhTask {
+    pub refs: Vec<Ref>,
+    pub depth: usize,
+    pub budget: usize,
+}
+
+impl SbvhTask {
+    /// The children's tasks after a split (with the budget left shared between them).
+    pub fn children(&self, left: Vec<Ref>, right: Vec<Ref>) -> (SbvhTask, SbvhTask) {
+        let (bl, br) = child_budgets(self.refs.len(), left.len(), right.len(), self.budget);
+        let depth = self.depth + 1;
+        (
+            SbvhTask {
+                refs: left,
+                depth,
+                budget: bl,
+            },
+            SbvhTask {
+                refs: right,
+                depth,
+                budget: br,
+            },
+        )
+    }
+
+    /// The driver's step for a decision over this node (of box `bounds`).
+    pub fn step(self, bounds: Aabb, decision: Decision) -> Step<SbvhTask> {
+        match decision {
+            Decision::Leaf => Step::Leaf { bounds, task: self },
+            Decision::Split(l, r) => {
+                let (left, right) = self.children(l, r);
+                Step::Split {
+                    bounds,
+                    left,
+                    right,
+                }
+            }
+        }
+    }
+}
+
+/// The SBVH rule as a [`TopDown`] hook.
+pub(crate) struct SbvhRule<'a>(pub Ctx<'a>);
+
+impl TopDown for SbvhRule<'_> {
+    type Task = SbvhTask;
+    type Scratch = ObjectScratch;
+
+    fn size(&self, t: &SbvhTask) -> usize {
+        t.refs.len()
+    }
+
+    fn split(&self, t: SbvhTask, scratch: &mut ObjectScratch) -> Step<SbvhTask> {
+        let bounds = refs_bounds(&t.refs);
+        let area = half_area(&bounds);
+        let d = decide(&self.0, &t.refs, &bounds, area, t.depth, t.budget, scratch);
+        t.step(bounds, d)
+    }
+
+    fn leaf_refs(&self, t: &SbvhTask, out: &mut Vec<u32>) {
+        out.extend(t.refs.iter().map(|r| r.prim));
+    }
+
+    fn parallel_threshold(&self) -> usize {
+        2048
+    }
+}

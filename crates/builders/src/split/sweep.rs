@@ -1,0 +1,260 @@
+//! The full sweep (MacDonald & Booth 1990): the primitives of a node sorted by centroid on
+//! each axis, and every one of the `n - 1` positions of each order as a candidate.
+//!
+//! [`sweep_order`] is the one sweep: suffix bounds right to left, then the left side grown
+//! left to right, each position handed to a visitor with both sides' geometry.
+//! [`sweep_axis`] and [`best_split`] rate the positions by Eq. 2 as [`SplitCandidate`]s (the
+//! greedy builders and the candidate selection of the paper's builders); the SBVH object
+//! search rates them by area-count score through the same sweep. [`sorted_orders`],
+//! [`split_orders`] and [`partition_in_place`] keep the orders sorted through a split.
+
+use sahara_geom::{Aabb, Vec3A};
+use sahara_metrics::CostModel;
+
+use super::{imbalance, ranks_before, sort_by_key, Marks, Suffix};
+
+/// A candidate split of a node whose primitives are sorted by centroid along `axis`: the first
+/// `pos` primitives of that order go left, the others right.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitCandidate {
+    /// The axis whose sorted order is split.
+    pub axis: usize,
+    /// Number of primitives on the left (`1..n`).
+    pub pos: usize,
+    /// Its greedy cost (Eq. 2), or whatever rating replaced it.
+    pub cost: f64,
+    /// Half the surface area of the left side's bounds.
+    pub left_area: f64,
+    /// Half the surface area of the right side's bounds.
+    pub right_area: f64,
+}
+
+impl SplitCandidate {
+    /// True when `self` beats `other` for a node of `n` primitives: lower cost, then (on an
+    /// exact tie) the more balanced split, then the lower axis, then the lower position (see
+    /// [`ranks_before`]).
+    #[inline]
+    pub fn better_than(&self, other: &SplitCandidate, n: usize) -> bool {
+        ranks_before(
+            self.cost,
+            (imbalance(self.pos, n - self.pos), self.axis, self.pos),
+            other.cost,
+            (imbalance(other.pos, n - other.pos), other.axis, other.pos),
+        )
+    }
+
+    /// The stand-in a sweep starts from: the median split of the x order with infinite cost.
+    /// Any real candidate with a finite cost beats it; it is kept only when every cost is
+    /// infinite or NaN (boxes whose area overflows), which still gives a valid tree.
+    pub fn fallback(n: usize) -> SplitCandidate {
+        SplitCandidate {
+            axis: 0,
+            pos: n / 2,
+            cost: f64::INFINITY,
+            left_area: f64::INFINITY,
+            right_area: f64::INFINITY,
+        }
+    }
+}
+
+/// The SAH cost of a (temporary) subtree and the half area of its root's bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SubtreeCost {
+    /// `c(T)` of Eq. 1, relative to the subtree root's own bounds (the expected cost of a ray
+    /// that hits the root's box).
+    pub cost: f64,
+    /// Half the surface area of the root's bounds (as `f64`).
+    pub area: f64,
+}
+
+impl SubtreeCost {
+    /// The cost of nothing.
+    pub const ZERO: SubtreeCost = SubtreeCost {
+        cost: 0.0,
+        area: 0.0,
+    };
+}
+
+/// The three sorted orders of a subset of primitives: `ids` sorted by centroid along x, y and
+/// z, each by the total order of `f32::total_cmp` with ties broken by the primitive id. Runs
+/// the three sorts in parallel.
+pub fn sorted_orders(centroids: &[Vec3A], ids: &[u32]) -> [Vec<u32>; 3] {
+    let sort_axis = |axis: usize| {
+        let mut keys = Vec::new();
+        sort_by_key(&mut keys, ids.len(), |i| {
+            (centroids[ids[i] as usize][axis], ids[i])
+        });
+        keys.into_iter().map(|k| k as u32).collect::<Vec<u32>>()
+    };
+    let (x, (y, z)) = rayon::join(
+        || sort_axis(0),
+        || rayon::join(|| sort_axis(1), || sort_axis(2)),
+    );
+    [x, y, z]
+}
+
+/// The first pass of a sweep over one sorted order of `n >= 1` items whose boxes are
+/// `item(0..n)`: the suffix bounds right to left into `suffix[1..n]`. Returns the bounds of
+/// all the items (the node's bounds).
+#[inline]
+pub fn suffix_pass<'b, S: Suffix>(
+    n: usize,
+    item: impl Fn(usize) -> &'b Aabb,
+    suffix: &mut [S],
+) -> Aabb {
+    let suffix = &mut suffix[..n];
+    let mut acc = Aabb::EMPTY;
+    for j in (1..n).rev() {
+        acc.grow_aabb(item(j));
+        suffix[j] = S::of(&acc);
+    }
+    acc.grow_aabb(item(0));
+    acc
+}
+
+/// The second pass of a sweep (after [`suffix_pass`]): the left side grown left to right,
+/// calling `visit(pos, left, right)` for each position `pos` in `1..n`, with `left` the bounds
+/// of items `0..pos` and `right` the suffix of items `pos..n`.
+#[inline]
+#[allow(clippy::needless_range_loop)]
+pub fn prefix_pass<'b, S: Suffix>(
+    n: usize,
+    item: impl Fn(usize) -> &'b Aabb,
+    suffix: &[S],
+    mut visit: impl FnMut(usize, &Aabb, &S),
+) {
+    let mut left = Aabb::EMPTY;
+    for j in 1..n {
+        left.grow_aabb(item(j - 1));
+        visit(j, &left, &suffix[j]);
+    }
+}
+
+/// Sweeps one sorted order of primitive ids by Eq. 2: each of the `n - 1` positions is handed
+/// to `visit` as a [`SplitCandidate`] (`areas` is scratch of at least `n`). Returns the bounds
+/// of all the primitives of the order. `n >= 1`.
+#[inline]
+pub fn sweep_axis<F: FnMut(SplitCandidate)>(
+    bounds: &[Aabb],
+    order: &[u32],
+    axis: usize,
+    areas: &mut [f32],
+    cost: &CostModel,
+    mut visit: F,
+) -> Aabb {
+    let n = order.len();
+    let item = |j: usize| &bounds[order[j] as usize];
+    let node = suffix_pass(n, item, areas);
+    let parent_area = node.half_area() as f64;
+    prefix_pass(n, item, areas, |j, left, right: &f32| {
+        let left_area = left.half_area() as f64;
+        let right_area = right.area();
+        visit(SplitCandidate {
+            axis,
+            pos: j,
+            cost: cost.split_cost(parent_area, left_area, j, right_area, n - j),
+            left_area,
+            right_area,
+        });
+    });
+    node
+}
+
+/// The node's bounds and its greedy-best split by Eq. 2 (see [`SplitCandidate::better_than`]);
+/// for `n == 1` the split is a meaningless fallback.
+#[inline]
+pub fn best_split(
+    bounds: &[Aabb],
+    orders: [&[u32]; 3],
+    areas: &mut [f32],
+    cost: &CostModel,
+) -> (Aabb, SplitCandidate) {
+    let n = orders[0].len();
+    let mut best = SplitCandidate::fallback(n);
+    let mut node = Aabb::EMPTY;
+    for (axis, order) in orders.iter().enumerate() {
+        node = sweep_axis(bounds, order, axis, areas, cost, |c| {
+            if c.better_than(&best, n) {
+                best = c;
+            }
+        });
+    }
+    (node, best)
+}
+
+/// Splits the sorted orders of a node by a candidate into new arrays: the first `pos` ids of
+/// `orders[axis]` go left, the rest right; `left[a]` and `right[a]` receive the ids of each
+/// side in the order of `orders[a]` (a stable partition, so they stay sorted). `left` slices
+/// must hold `pos` ids and `right` slices `n - pos`. `marks` must cover every id and have the
+/// ids' flags clear; they are clear again on return.
+///
+/// # Panics
+/// If the slice lengths do not match, or `pos` is not in `1..n`.
+pub fn split_orders(
+    orders: [&[u32]; 3],
+    axis: usize,
+    pos: usize,
+    marks: &Marks,
+    left: [&mut [u32]; 3],
+    right: [&mut [u32]; 3],
+) {
+    let n = orders[axis].len();
+    assert!(pos > 0 && pos < n, "split position {pos} outside 1..{n}");
+    for &id in &orders[axis][..pos] {
+        marks.set(id, true);
+    }
+    for ((order, l), r) in orders.iter().zip(left).zip(right) {
+        assert_eq!(order.len(), n);
+        assert_eq!(l.len(), pos);
+        assert_eq!(r.len(), n - pos);
+        let (mut li, mut ri) = (0, 0);
+        for &id in order.iter() {
+            if marks.get(id) {
+                l[li] = id;
+                li += 1;
+            } else {
+                r[ri] = id;
+                ri += 1;
+            }
+        }
+        assert_eq!(li, pos, "orders do not hold the same ids");
+    }
+    for &id in &orders[axis][..pos] {
+        marks.set(id, false);
+    }
+}
+
+/// Stable partition of a node's orders in place by a split: the first `pos` ids of
+/// `orders[axis]` stay in front on every axis, in their order. `tmp.len() >= n`.
+pub fn partition_in_place(
+    orders: &mut [&mut [u32]; 3],
+    axis: usize,
+    pos: usize,
+    marks: &Marks,
+    tmp: &mut [u32],
+) {
+    for &id in orders[axis][..pos].iter() {
+        marks.set(id, true);
+    }
+    for (b, order) in orders.iter_mut().enumerate() {
+        if b == axis {
+            continue;
+        }
+        let (mut l, mut r) = (0, 0);
+        for j in 0..order.len() {
+            let id = order[j];
+            if marks.get(id) {
+                order[l] = id;
+                l += 1;
+            } else {
+                tmp[r] = id;
+                r += 1;
+            }
+        }
+        debug_assert_eq!(l, pos);
+        order[pos..].copy_from_slice(&tmp[..r]);
+    }
+    for &id in orders[axis][..pos].iter() {
+        marks.set(id, false);
+    }
+}

@@ -1,0 +1,387 @@
+//! The one top-down driver every builder runs on.
+//!
+//! A top-down builder is a rule that looks at one node and either makes it a leaf or splits it
+//! into two children. That rule is all a builder writes: it implements [`TopDown`] (its
+//! [`Task`](TopDown::Task) is whatever it needs to know about a node still to build: a segment
+//! of sorted orders, a list of references, a depth, a budget...), and [`build`] does the rest:
+//!
+//! * **recursion** without a depth limit: subtrees are built with an explicit stack;
+//! * **parallelism**: when a split leaves a child with more than
+//!   [`TopDown::parallel_threshold`] references, the smaller child goes to another rayon
+//!   worker and the current one continues with the larger, so the stack stays small whatever
+//!   the shape of the tree;
+//! * **node storage**: each worker writes its subtrees into its own fragment of the depth-first
+//!   layout; the fragments are joined once at the end;
+//! * **determinism**: the output layout is the depth-first order of the tree (left child right
+//!   after its parent, leaves' references in the same order), whichever worker built which
+//!   subtree, so the [`Bvh`] does not depend on the number of threads as long as the rule
+//!   itself does not.
+//!
+//! [`cost`] runs the same rule without storing anything: it returns the SAH cost `c(T)`
+//! (Eq. 1) of the tree the rule would build, bottom-up. The paper's builders rate candidate
+//! splits with it (temporary subtrees).
+//!
+//! # Example: a median-split builder
+//!
+//! ```
+//! use sahara_builders::topdown::{self, Step, TopDown};
+//! use sahara_builders::BuildInput;
+//! use sahara_geom::{Aabb, Triangle, Vec3A};
+//! use sahara_metrics::CostModel;
+//!
+//! /// Splits every node of more than 4 primitives at the median of its longest axis.
+//! struct Median<'a> {
+//!     input: &'a BuildInput<'a>,
+//! }
+//!
+//! impl<'a> TopDown for Median<'a> {
+//!     type Task = &'a mut [u32];
+//!     type Scratch = ();
+//!
+//!     fn size(&self, prims: &Self::Task) -> usize {
+//!         prims.len()
+//!     }
+//!
+//!     fn split(&self, prims: Self::Task, _: &mut ()) -> Step<Self::Task> {
+//!         let bounds = prims.iter().fold(Aabb::EMPTY, |b, &p| b.union(&self.input.bounds()[p as usize]));
+//!         if prims.len() <= 4 {
+//!             return Step::Leaf { bounds, task: prims };
+//!         }
+//!         let axis = bounds.largest_axis();
+//!         let c = self.input.centroids();
+//!         prims.sort_unstable_by(|&a, &b| {
+//!             c[a as usize][axis].total_cmp(&c[b as usize][axis]).then(a.cmp(&b))
+//!         });
+//!         let (left, right) = prims.split_at_mut(prims.len() / 2);
+//!         Step::Split { bounds, left, right }
+//!     }
+//!
+//!     fn leaf_refs(&self, prims: &Self::Task, out: &mut Vec<u32>) {
+//!         out.extend_from_slice(prims);
+//!     }
+//! }
+//!
+//! let tris: Vec<Triangle> = (0..100)
+//!     .map(|i| {
+//!         let o = Vec3A::new(i as f32, 0.0, 0.0);
+//!         Triangle::new(o, o + Vec3A::X, o + Vec3A::Y)
+//!     })
+//!     .collect();
+//! let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+//! let mut prims: Vec<u32> = (0..100).collect();
+//! let bvh = topdown::build(&Median { input: &input }, &mut prims[..], false);
+//! bvh.validate(&tris).unwrap();
+//! assert_eq!(bvh.stats().max_leaf, 4);
+//! ```
+//!
+//! `examples/median_split.rs` is the same builder behind the [`Builder`](crate::Builder) trait
+//! and registered with [`crate::registry::register`].
+
+use std::sync::Mutex;
+
+use sahara_bvh::{Bvh, Node};
+use sahara_geom::Aabb;
+use sahara_metrics::CostModel;
+
+use crate::split::half_area;
+use crate::split::sweep::SubtreeCost;
+
+/// What [`TopDown::split`] decided for a node.
+#[derive(Debug)]
+pub enum Step<T> {
+    /// The node is a leaf with these bounds; its references are those of `task`
+    /// ([`TopDown::leaf_refs`]).
+    Leaf {
+        /// The leaf's bounds.
+        bounds: Aabb,
+        /// The node, for [`TopDown::leaf_refs`] and [`TopDown::size`].
+        task: T,
+    },
+    /// The node is an inner node with these bounds and two children to build.
+    Split {
+        /// The node's bounds (the union of its children's).
+        bounds: Aabb,
+        /// The left child (stored first).
+        left: T,
+        /// The right child.
+        right: T,
+    },
+}
+
+/// A top-down construction rule: what to do with one node. See the [module
+/// documentation](self) for what the driver does with it.
+///
+/// The rule must be deterministic (its decision a function of the task alone) for the tree to
+/// be; it may use rayon internally (to rate candidates in parallel, for example).
+pub trait TopDown: Sync {
+    /// A node still to be built.
+    type Task: Send;
+    /// Reusable buffers: the driver keeps one per worker loop and hands it to every
+    /// [`split`](Self::split) of that loop.
+    type Scratch: Default + Send;
+
+    /// The number of references of the node (used to decide what runs in parallel, and as the
+    /// leaf's reference count by [`cost`]).
+    fn size(&self, task: &Self::Task) -> usize;
+
+    /// Makes the node a leaf, or splits it.
+    fn split(&self, task: Self::Task, scratch: &mut Self::Scratch) -> Step<Self::Task>;
+
+    /// Appends the references (primitive indices) of a node that [`split`](Self::split) made a
+    /// leaf.
+    fn leaf_refs(&self, task: &Self::Task, out: &mut Vec<u32>);
+
+    /// Children with more references than this are built by other rayon workers; smaller
+    /// subtrees are built serially. It changes the speed, never the tree. Default 4096.
+    fn parallel_threshold(&self) -> usize {
+        4096
+    }
+}
+
+/// Marks a fragment node that stands for another fragment (its `index` is the fragment's slot).
+const PLACEHOLDER: u32 = u32::MAX;
+/// No node to patch.
+const NONE: usize = usize::MAX;
+
+/// A piece of the depth-first layout. Either a subtree built serially (indices relative to the
+/// fragment's own arrays) or, for a split handed to other workers, an inner node followed by
+/// two placeholders.
+#[derive(Default)]
+struct Fragment {
+    nodes: Vec<Node>,
+    prims: Vec<u32>,
+}
+
+struct Shared<'h, H> {
+    hook: &'h H,
+    slots: Mutex<Vec<Option<Fragment>>>,
+}
+
+impl<H> Shared<'_, H> {
+    fn reserve(&self) -> u32 {
+        let mut s = self.slots.lock().expect("slots");
+        s.push(None);
+        (s.len() - 1) as u32
+    }
+
+    fn store(&self, slot: u32, f: Fragment) {
+        self.slots.lock().expect("slots")[slot as usize] = Some(f);
+    }
+}
+
+/// Builds the tree of the rule `hook` over the root task. `spatial_splits` is recorded in the
+/// [`Bvh`] (true when a primitive may be referenced by several leaves).
+pub fn build<H: TopDown>(hook: &H, root: H::Task, spatial_splits: bool) -> Bvh {
+    let threshold = hook.parallel_threshold().max(1);
+    if hook.size(&root) <= threshold {
+        let mut f = Fragment::default();
+        serial(hook, root, &mut f, &mut H::Scratch::default());
+        return Bvh {
+            nodes: f.nodes,
+            prim_indices: f.prims,
+            spatial_splits,
+        };
+    }
+    let shared = Shared {
+        hook,
+        slots: Mutex::new(vec![None]),
+    };
+    rayon::scope(|s| run(s, &shared, root, 0));
+    let frags: Vec<Fragment> = shared
+        .slots
+        .into_inner()
+        .expect("slots")
+        .into_iter()
+        .map(|f| f.expect("every fragment is built"))
+        .collect();
+    stitch(frags, spatial_splits)
+}
+
+/// Builds the subtree of `task` into fragment `slot` (and the fragments it spawns).
+fn run<'s, H: TopDown>(
+    scope: &rayon::Scope<'s>,
+    shared: &'s Shared<'s, H>,
+    mut task: H::Task,
+    mut slot: u32,
+) where
+    H::Task: 's,
+{
+    let hook = shared.hook;
+    let threshold = hook.parallel_threshold().max(1);
+    let mut scratch = H::Scratch::default();
+    loop {
+        let mut frag = Fragment::default();
+        if hook.size(&task) <= threshold {
+            serial(hook, task, &mut frag, &mut scratch);
+            shared.store(slot, frag);
+            return;
+        }
+        match hook.split(task, &mut scratch) {
+            Step::Leaf { bounds, task } => {
+                push_leaf(hook, &mut frag, &bounds, &task);
+                shared.store(slot, frag);
+                return;
+            }
+            Step::Split {
+                bounds,
+                left,
+                right,
+            } => {
+                let (ls, rs) = (shared.reserve(), shared.reserve());
+                frag.nodes.push(Node::inner(&bounds, 2));
+                frag.nodes.push(placeholder(ls));
+                frag.nodes.push(placeholder(rs));
+                shared.store(slot, frag);
+                let (small, small_slot, large, large_slot) =
+                    if hook.size(&left) <= hook.size(&right) {
+                        (left, ls, right, rs)
+                    } else {
+                        (right, rs, left, ls)
+                    };
+                if hook.size(&small) > threshold {
+                    scope.spawn(move |s| run(s, shared, small, small_slot));
+                } else {
+                    let mut f = Fragment::default();
+                    serial(hook, small, &mut f, &mut scratch);
+                    shared.store(small_slot, f);
+                }
+                task = large;
+                slot = large_slot;
+            }
+        }
+    }
+}
+
+fn placeholder(slot: u32) -> Node {
+    Node {
+        index: slot,
+        count: PLACEHOLDER,
+        ..Node::default()
+    }
+}
+
+fn push_leaf<H: TopDown>(hook: &H, frag: &mut Fragment, bounds: &Aabb, task: &H::Task) {
+    let first = frag.prims.len();
+    hook.leaf_refs(task, &mut frag.prims);
+    let count = frag.prims.len() - first;
+    debug_assert!(count > 0, "a leaf without references");
+    frag.nodes
+        .push(Node::leaf(bounds, first as u32, count as u32));
+}
+
+/// Builds a subtree on the current thread into `frag` (an explicit stack: no depth limit).
+fn serial<H: TopDown>(hook: &H, task: H::Task, frag: &mut Fragment, scratch: &mut H::Scratch) {
+    // (task, index of the inner node whose right child it is)
+    let mut stack = vec![(task, NONE)];
+    while let Some((task, patch)) = stack.pop() {
+        if patch != NONE {
+            frag.nodes[patch].index = frag.nodes.len() as u32;
+        }
+        match hook.split(task, scratch) {
+            Step::Leaf { bounds, task } => push_leaf(hook, frag, &bounds, &task),
+            Step::Split {
+                bounds,
+                left,
+                right,
+            } => {
+                let me = frag.nodes.len();
+                frag.nodes.push(Node::inner(&bounds, 0));
+                stack.push((right, me));
+                stack.push((left, NONE));
+            }
+        }
+    }
+}
+
+/// Joins the fragments into one depth-first layout, starting from fragment 0.
+fn stitch(frags: Vec<Fragment>, spatial_splits: bool) -> Bvh {
+    let n_nodes = frags
+        .iter()
+        .map(|f| f.nodes.iter().filter(|n| n.count != PLACEHOLDER).count())
+        .sum();
+    let n_prims = frags.iter().map(|f| f.prims.len()).sum();
+    let mut nodes: Vec<Node> = Vec::with_capacity(n_nodes);
+    let mut prims: Vec<u32> = Vec::with_capacity(n_prims);
+    enum Item {
+        Emit(u32),
+        Right(usize, u32),
+    }
+    let mut stack = vec![Item::Emit(0)];
+    while let Some(item) = stack.pop() {
+        let slot = match item {
+            Item::Emit(slot) => slot,
+            Item::Right(parent, slot) => {
+                nodes[parent].index = nodes.len() as u32;
+                slot
+            }
+        };
+        let f = &frags[slot as usize];
+        if f.nodes.len() == 3 && f.nodes[1].count == PLACEHOLDER {
+            // A split handed to other workers: the inner node, then both children.
+            let me = nodes.len();
+            nodes.push(f.nodes[0]);
+            stack.push(Item::Right(me, f.nodes[2].index));
+            stack.push(Item::Emit(f.nodes[1].index));
+            continue;
+        }
+        let node_off = nodes.len() as u32;
+        let prim_off = prims.len() as u32;
+        nodes.extend(f.nodes.iter().map(|n| {
+            let mut n = *n;
+            n.index += if n.is_leaf() { prim_off } else { node_off };
+            n
+        }));
+        prims.extend_from_slice(&f.prims);
+    }
+    Bvh {
+        nodes,
+        prim_indices: prims,
+        spatial_splits,
+    }
+}
+
+/// The SAH cost `c(T)` (Eq. 1, relative to the root's bounds) of the tree the rule `hook`
+/// would build over `task`, and the half area of its root, computed bottom-up on the current
+/// thread without storing a node. A leaf of `n` references costs `n c_i`, an inner node
+/// combines its children by their areas (`CostModel::inner_cost`).
+pub fn cost<H: TopDown>(
+    hook: &H,
+    task: H::Task,
+    cost: &CostModel,
+    scratch: &mut H::Scratch,
+) -> SubtreeCost {
+    enum Item<T> {
+        Visit(T),
+        Combine(f64),
+    }
+    let mut stack = vec![Item::Visit(task)];
+    let mut values: Vec<SubtreeCost> = Vec::new();
+    while let Some(item) = stack.pop() {
+        match item {
+            Item::Visit(task) => match hook.split(task, scratch) {
+                Step::Leaf { bounds, task } => values.push(SubtreeCost {
+                    cost: cost.leaf_cost(hook.size(&task)),
+                    area: half_area(&bounds),
+                }),
+                Step::Split {
+                    bounds,
+                    left,
+                    right,
+                } => {
+                    stack.push(Item::Combine(half_area(&bounds)));
+                    stack.push(Item::Visit(right));
+                    stack.push(Item::Visit(left));
+                }
+            },
+            Item::Combine(area) => {
+                let r = values.pop().expect("right cost");
+                let l = values.pop().expect("left cost");
+                values.push(SubtreeCost {
+                    cost: cost.inner_cost(area, l.area, l.cost, r.area, r.cost),
+                    area,
+                });
+            }
+        }
+    }
+    values.pop().expect("root cost")
+}
