@@ -34,7 +34,7 @@ pub struct Args {
     force: bool,
 }
 
-/// The JSON record of one build (DESIGN.md's contract).
+/// The JSON record of one build (its fields are a contract: `docs/command-line.md`).
 #[derive(Clone, Debug, Serialize)]
 pub struct BuildReport {
     pub scene: String,

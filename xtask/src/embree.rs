@@ -13,7 +13,7 @@
 //! quality MEDIUM, scene flags NONE (Embree's fast, non-robust mode), one triangle geometry
 //! whose primitive ids are the indices of the caller's triangle slice. Queries use the
 //! single-ray API (`rtcIntersect1` for closest hits, `rtcOccluded1` for any hit) with an
-//! incoherent intersect context, as the reference figures of BASELINES.md did.
+//! incoherent intersect context, the protocol of the reference figures in `docs/baselines.md`.
 //!
 //! Two environment variables change the scene, for experiments only (the report's layout
 //! name stays `embree`): `SAHARA_EMBREE_QUALITY=low|medium|high` and

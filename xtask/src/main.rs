@@ -1,4 +1,5 @@
-//! `cargo xtask`: the project's tasks (see README.md and DESIGN.md's command-line contract).
+//! `cargo xtask`: the project's tasks (see README.md and the command-line contract in
+//! `docs/command-line.md`).
 
 mod bvh_cmd;
 #[cfg(feature = "embree")]

@@ -18,7 +18,7 @@ pub struct Args {
     /// Registered builder name.
     #[arg(long)]
     builder: String,
-    /// primary, diffuse, ao, or a ray file (32-byte records, see DESIGN.md).
+    /// primary, diffuse, ao, or a ray file (32-byte records, see docs/command-line.md).
     #[arg(long, default_value = "primary")]
     rays: String,
     /// Traversal layout: bvh2, bvh4 or bvh8 (or embree, the same as `--engine embree`).
@@ -54,7 +54,7 @@ pub struct Args {
     dump_rays: Option<PathBuf>,
 }
 
-/// The JSON record of one trace measurement (DESIGN.md's contract).
+/// The JSON record of one trace measurement (its fields are a contract: `docs/command-line.md`).
 #[derive(Clone, Debug, Serialize)]
 pub struct TraceReport {
     pub scene: String,

@@ -127,7 +127,7 @@ fn rejects_bad_configs() {
 }
 
 /// With the greedy-best split always rated and sweep temporaries, the tree's SAH is never
-/// above the sweep builder's (the induction of ALGORITHMS.md §3).
+/// above the sweep builder's (the induction in docs/builders-tsah.md, "SAH guarantee").
 #[test]
 fn sah_never_above_sweep() {
     let scenes: Vec<(&str, Vec<Triangle>)> = vec![

@@ -1,5 +1,5 @@
-//! Ray files and hit files (`DESIGN.md`): flat arrays of little-endian records, so that any
-//! two tracers can be compared ray by ray.
+//! Ray files and hit files (`docs/command-line.md`, "Ray and hit files"): flat arrays of
+//! little-endian records, so that any two tracers can be compared ray by ray.
 //!
 //! * ray record, 32 bytes: `[ox, oy, oz, tmin, dx, dy, dz, tmax]` as `f32`;
 //! * hit record, 16 bytes: `[t, prim, u, v]`, `t` an `f32` (`+inf` for a miss), `prim` a

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-/// The three kinds of ray set of the evaluation (`ALGORITHMS.md` §7).
+/// The three kinds of ray set of the evaluation (`docs/evaluation.md`, "The matrix").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RayKind {

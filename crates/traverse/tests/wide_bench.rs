@@ -6,7 +6,8 @@
 //! the workspace),
 //! the binary tree is a binned SAH build (see `wide_common::sah_bvh`, leaves of at most
 //! `$SAHARA_BENCH_LEAF` = 4 triangles) or, with `SAHARA_BENCH_BUILDER=<name>`, the
-//! `sahara-builders` registry's builder of that name (for example `sweep`); the camera is the "framed" one of BASELINES.md:
+//! `sahara-builders` registry's builder of that name (for example `sweep`); the camera is the
+//! "framed" one of `docs/baselines.md`:
 //! eye = centre + normalize(0, 0.1, 1) · 1.2 · |diagonal|, looking at the centre, 45° vertical
 //! field of view, 1024 × 768 rays through pixel centres.
 
