@@ -1,4 +1,7 @@
-//! Default pinhole cameras for scenes.
+//! Pinhole cameras, and the framing of a scene that has no camera of its own.
+//!
+//! The cameras of the named scenes are data, not code: the repository's `scenes/cameras.tsv`
+//! (see [`named_cameras`](crate::named_cameras) and [`default_camera`](crate::default_camera)).
 
 use sahara_geom::{Aabb, Vec3A};
 
@@ -22,7 +25,8 @@ pub enum UpAxis {
     /// `+y` is up (the convention of OBJ and glTF, and of every scene but a few).
     #[default]
     Y,
-    /// `+z` is up (GIS and CAD data, e.g. `san_francisco_osm`).
+    /// `+z` is up (GIS and CAD data, e.g. `san_francisco_osm`, whose camera in
+    /// `scenes/cameras.tsv` has `up` = `0,0,1`).
     Z,
 }
 
@@ -78,48 +82,6 @@ impl Camera {
     /// The unit viewing direction, from `eye` to `target`.
     pub fn direction(&self) -> Vec3A {
         (self.target - self.eye).normalize_or_zero()
-    }
-}
-
-/// The built-in camera of a known scene, by catalog name.
-///
-/// The two interiors use the views from inside the nave listed in the scene folder's
-/// `SCENES.md` (`sponza_dabrovic`, `sibenik`); `san_francisco_osm` (z up) is seen from the
-/// south, looking down at about 30° on its centre; any other name is framed with the up axis
-/// of [`up_axis_of`] ([`Camera::framing`]). Procedural scenes get their
-/// cameras from their generators instead.
-pub fn default_camera(name: &str, bounds: &Aabb) -> Camera {
-    match name {
-        "sponza_dabrovic" => Camera::new(
-            Vec3A::new(-14.0, 2.5, 0.0),
-            Vec3A::new(0.0, 5.0, 0.0),
-            Vec3A::Y,
-            60.0,
-        ),
-        "sibenik" => Camera::new(
-            Vec3A::new(-18.0, -10.0, 0.0),
-            Vec3A::new(0.0, -8.0, 0.0),
-            Vec3A::Y,
-            60.0,
-        ),
-        // A flat city: framing it from the side shows a thin strip, so look down at ~30°
-        // from the south instead.
-        "san_francisco_osm" => Camera::new(
-            Vec3A::new(102.6, -1000.0, 600.0),
-            Vec3A::new(102.6, -4.2, 0.0),
-            Vec3A::Z,
-            45.0,
-        ),
-        _ => Camera::framing(bounds, up_axis_of(name)),
-    }
-}
-
-/// The up axis of a known scene, by catalog name (`Z` for `san_francisco_osm`, `Y` for
-/// anything else).
-pub fn up_axis_of(name: &str) -> UpAxis {
-    match name {
-        "san_francisco_osm" => UpAxis::Z,
-        _ => UpAxis::Y,
     }
 }
 

@@ -7,13 +7,88 @@ use std::path::{Path, PathBuf};
 use sha2::{Digest, Sha256};
 
 use crate::{
-    default_camera, load_mesh, Camera, Format, Procedural, Scene, SceneError, SceneSource,
-    DEFAULT_SEED,
+    load_mesh, Camera, Format, Procedural, Scene, SceneError, SceneSource, UpAxis, DEFAULT_SEED,
 };
-use sahara_geom::Vec3A;
+use sahara_geom::{Aabb, Vec3A};
 
 /// The environment variable naming extra scene folders (a path list, `:`-separated on Unix).
 pub const SCENES_ENV: &str = "SAHARA_SCENES";
+
+/// The repository's `scenes/cameras.tsv` as it was when this crate was built: the cameras of
+/// the named scenes for a program run outside the repository ([`named_cameras`]).
+pub const EMBEDDED_CAMERAS: &str = include_str!("../../../scenes/cameras.tsv");
+
+/// A problem met while reading a scene folder's `manifest.tsv` or `cameras.tsv`. The catalog
+/// still uses the folder, without the offending part ([`Catalog::warnings`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CatalogWarning {
+    /// The file could not be read; it is ignored.
+    #[error("{}: cannot read: {message}", file.display())]
+    Unreadable {
+        /// The index file.
+        file: PathBuf,
+        /// The I/O error.
+        message: String,
+    },
+    /// The header lacks a required column; the file is ignored.
+    #[error("{}: header must name the columns {}", file.display(), required.join(", "))]
+    MissingColumns {
+        /// The index file.
+        file: PathBuf,
+        /// Every required column.
+        required: &'static [&'static str],
+    },
+    /// A row with a missing or invalid field. A camera row is skipped; a manifest row is
+    /// skipped if its `name` or `file` is missing, and read without its triangle count if
+    /// only that is invalid.
+    #[error("{}: line {line}: invalid or missing `{column}`: `{value}`", file.display())]
+    MalformedRow {
+        /// The index file.
+        file: PathBuf,
+        /// 1-based line number in the file.
+        line: usize,
+        /// The column whose field is wrong.
+        column: &'static str,
+        /// The field as written (empty if missing).
+        value: String,
+    },
+    /// A camera row for a name listed earlier in the same `cameras.tsv`: skipped, the first
+    /// row is used.
+    #[error("{}: line {line}: `{name}` has a camera already; this row is ignored", file.display())]
+    DuplicateCamera {
+        /// The `cameras.tsv`.
+        file: PathBuf,
+        /// 1-based line number of the ignored row.
+        line: usize,
+        /// The scene name.
+        name: String,
+    },
+    /// A manifest row names a file of an unsupported format; skipped.
+    #[error("{}: `{listed}`: unsupported format", manifest.display())]
+    UnsupportedFormat {
+        /// The `manifest.tsv`.
+        manifest: PathBuf,
+        /// The file as listed.
+        listed: String,
+    },
+    /// A manifest row names a file that does not exist; skipped.
+    #[error("{}: `{listed}` is listed but missing", manifest.display())]
+    MissingFile {
+        /// The `manifest.tsv`.
+        manifest: PathBuf,
+        /// The file as listed.
+        listed: String,
+    },
+    /// A scene of a later folder has the name of an earlier entry; the earlier one is kept.
+    #[error("{}: `{name}` is shadowed by an earlier scene of the same name", dir.display())]
+    Shadowed {
+        /// The folder of the shadowed scene.
+        dir: PathBuf,
+        /// The name.
+        name: String,
+    },
+}
 
 /// Where a catalog entry was found.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -73,7 +148,10 @@ pub struct CatalogEntry {
     pub sha256: Option<String>,
     /// The licence from `manifest.tsv`, if listed.
     pub license: Option<String>,
-    /// A camera from the folder's `cameras.tsv`, if listed (it overrides the default).
+    /// The camera: for a file, the row of its own folder's `cameras.tsv`, else the row of
+    /// the named scenes' table ([`named_cameras`]) for its name, else `None` (the scene is
+    /// then framed when loaded, [`default_camera`]); for a procedural scene, its
+    /// generator's camera.
     pub camera: Option<Camera>,
 }
 
@@ -111,14 +189,18 @@ impl CatalogEntry {
 /// the columns `name` and `file`, and optionally `triangles`, `sha256`, `license`) give
 /// names, expected triangle counts and checksums; other `.obj`, `.obj.gz`, `.gltf` and `.glb`
 /// files are listed by file stem (or by file name with `.` replaced by `_`, if the stem is
-/// taken). An optional `cameras.tsv` (columns `name`, `eye`, `target`, `up`,
-/// `fov_y_degrees`, vectors written `x,y,z`) sets cameras. Folders that do not exist are
-/// skipped; problems with the index files are kept in [`Catalog::warnings`].
+/// taken). An optional `cameras.tsv` ([`parse_cameras`]) sets the cameras of the folder's
+/// scenes. A file scene without a row there gets the camera of its name from the named
+/// scenes' table, the repository's `scenes/cameras.tsv` ([`named_cameras`]), whatever folder
+/// it is in. Folders that do not exist are skipped; problems with the index files are kept
+/// in [`Catalog::warnings`].
 #[derive(Clone, Debug, Default)]
 pub struct Catalog {
     entries: Vec<CatalogEntry>,
     dirs: Vec<(PathBuf, Origin)>,
-    warnings: Vec<String>,
+    warnings: Vec<CatalogWarning>,
+    /// The named scenes' cameras, read by the first [`Catalog::add_dir`].
+    named: Option<NamedCameras>,
 }
 
 impl Catalog {
@@ -155,6 +237,11 @@ impl Catalog {
         if !dir.is_dir() {
             return;
         }
+        if self.named.is_none() {
+            let (named, warnings) = NamedCameras::read();
+            self.warnings.extend(warnings);
+            self.named = Some(named);
+        }
         let canon = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
         if self.dirs.iter().any(|(d, _)| *d == canon) {
             return;
@@ -173,19 +260,17 @@ impl Catalog {
                         let path = canon.join(&row.file);
                         listed_files.insert(row.file.clone());
                         let Some(format) = Format::from_path(&path) else {
-                            self.warnings.push(format!(
-                                "{}: `{}`: unsupported format",
-                                manifest.display(),
-                                row.file
-                            ));
+                            self.warnings.push(CatalogWarning::UnsupportedFormat {
+                                manifest: manifest.clone(),
+                                listed: row.file,
+                            });
                             continue;
                         };
                         if !path.is_file() {
-                            self.warnings.push(format!(
-                                "{}: `{}` is listed but missing",
-                                manifest.display(),
-                                row.file
-                            ));
+                            self.warnings.push(CatalogWarning::MissingFile {
+                                manifest: manifest.clone(),
+                                listed: row.file,
+                            });
                             continue;
                         }
                         found.push(CatalogEntry {
@@ -199,9 +284,10 @@ impl Catalog {
                         });
                     }
                 }
-                Err(e) => self
-                    .warnings
-                    .push(format!("{}: cannot read: {e}", manifest.display())),
+                Err(e) => self.warnings.push(CatalogWarning::Unreadable {
+                    file: manifest.clone(),
+                    message: e.to_string(),
+                }),
             }
         }
 
@@ -239,8 +325,11 @@ impl Catalog {
             });
         }
 
+        // The folder's own cameras first, then the named scenes' table. (The repository's
+        // `scenes/cameras.tsv` is that table: it was read, and its warnings kept, already.)
         let cameras = canon.join("cameras.tsv");
-        if cameras.is_file() {
+        let named = self.named.as_ref().expect("read above");
+        if cameras.is_file() && !named.is_read_from(&cameras) {
             match std::fs::read_to_string(&cameras) {
                 Ok(text) => {
                     let (cams, warnings) = parse_cameras(&text, &cameras);
@@ -251,19 +340,22 @@ impl Catalog {
                         }
                     }
                 }
-                Err(e) => self
-                    .warnings
-                    .push(format!("{}: cannot read: {e}", cameras.display())),
+                Err(e) => self.warnings.push(CatalogWarning::Unreadable {
+                    file: cameras.clone(),
+                    message: e.to_string(),
+                }),
             }
+        }
+        for e in found.iter_mut().filter(|e| e.camera.is_none()) {
+            e.camera = named.get(&e.name);
         }
 
         for e in found {
             if self.get(&e.name).is_some() {
-                self.warnings.push(format!(
-                    "{}: `{}` is shadowed by an earlier scene of the same name",
-                    canon.display(),
-                    e.name
-                ));
+                self.warnings.push(CatalogWarning::Shadowed {
+                    dir: canon.clone(),
+                    name: e.name,
+                });
             } else {
                 self.entries.push(e);
             }
@@ -308,8 +400,8 @@ impl Catalog {
     }
 
     /// Problems met while reading `manifest.tsv` and `cameras.tsv` files (malformed rows,
-    /// missing files, shadowed names).
-    pub fn warnings(&self) -> &[String] {
+    /// missing files, shadowed names), including the named scenes' table ([`named_cameras`]).
+    pub fn warnings(&self) -> &[CatalogWarning] {
         &self.warnings
     }
 
@@ -371,9 +463,11 @@ impl Catalog {
                         });
                     }
                 }
-                let camera = entry
-                    .camera
-                    .unwrap_or_else(|| default_camera(&entry.name, &mesh.bounds()));
+                let bounds = mesh.bounds();
+                let camera = entry.camera.unwrap_or_else(|| match &self.named {
+                    Some(named) => named.camera(&entry.name, &bounds),
+                    None => default_camera(&entry.name, &bounds),
+                });
                 Ok(Scene {
                     name: entry.name.clone(),
                     mesh,
@@ -466,6 +560,86 @@ pub fn workspace_root() -> Option<PathBuf> {
     None
 }
 
+/// The named scenes' cameras: the rows of [`EMBEDDED_CAMERAS`], replaced or added to by the
+/// rows of the workspace's `scenes/cameras.tsv` when there is one.
+#[derive(Clone, Debug, Default)]
+struct NamedCameras {
+    /// One camera per name, in file order.
+    cameras: Vec<(String, Camera)>,
+    /// The workspace's `scenes/cameras.tsv` (canonical path), if it was read.
+    file: Option<PathBuf>,
+}
+
+impl NamedCameras {
+    fn read() -> (NamedCameras, Vec<CatalogWarning>) {
+        let embedded = Path::new("scenes/cameras.tsv (embedded)");
+        let (mut cameras, mut warnings) = parse_cameras(EMBEDDED_CAMERAS, embedded);
+        let mut file = None;
+        let path = workspace_root().map(|r| r.join("scenes").join("cameras.tsv"));
+        if let Some(path) = path.filter(|p| p.is_file()) {
+            let path = path.canonicalize().unwrap_or(path);
+            match std::fs::read_to_string(&path) {
+                Ok(text) => {
+                    let (rows, w) = parse_cameras(&text, &path);
+                    warnings.extend(w);
+                    for (name, cam) in rows {
+                        match cameras.iter_mut().find(|(n, _)| *n == name) {
+                            Some(slot) => slot.1 = cam,
+                            None => cameras.push((name, cam)),
+                        }
+                    }
+                    file = Some(path);
+                }
+                Err(e) => warnings.push(CatalogWarning::Unreadable {
+                    file: path,
+                    message: e.to_string(),
+                }),
+            }
+        }
+        (NamedCameras { cameras, file }, warnings)
+    }
+
+    fn get(&self, name: &str) -> Option<Camera> {
+        self.cameras
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, c)| *c)
+    }
+
+    /// The camera of `name`, else a framing of `bounds` with y up.
+    fn camera(&self, name: &str, bounds: &Aabb) -> Camera {
+        self.get(name)
+            .unwrap_or_else(|| Camera::framing(bounds, UpAxis::Y))
+    }
+
+    /// Whether `path` is the workspace file this table was read from.
+    fn is_read_from(&self, path: &Path) -> bool {
+        let canon = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        self.file.as_deref() == Some(canon.as_path())
+    }
+}
+
+/// The cameras of the named scenes, one per name, and the problems met reading them.
+///
+/// They are the rows of the repository's `scenes/cameras.tsv`: the copy embedded in this
+/// crate when it was built ([`EMBEDDED_CAMERAS`]), with the rows of the workspace's
+/// `scenes/cameras.tsv` ([`workspace_root`]) replacing rows of the same name or added after
+/// them, when that file exists. The [`Catalog`] gives these cameras to file scenes of these
+/// names in every folder, unless the scene's own folder has a `cameras.tsv` row for it.
+pub fn named_cameras() -> (Vec<(String, Camera)>, Vec<CatalogWarning>) {
+    let (named, warnings) = NamedCameras::read();
+    (named.cameras, warnings)
+}
+
+/// The default camera of a scene file named `name` with bounds `bounds`: its camera in
+/// [`named_cameras`] (the interiors `sponza_dabrovic` and `sibenik` from inside the nave,
+/// `san_francisco_osm` from above), else [`Camera::framing`] of `bounds` with y up (the
+/// convention of OBJ and glTF). Procedural scenes get their cameras from their generators
+/// instead.
+pub fn default_camera(name: &str, bounds: &Aabb) -> Camera {
+    NamedCameras::read().0.camera(name, bounds)
+}
+
 /// The SHA-256 of a file, as lowercase hexadecimal.
 pub fn sha256_file(path: &Path) -> Result<String, SceneError> {
     let io = |source| SceneError::Io {
@@ -508,7 +682,7 @@ pub struct ManifestRow {
 /// header naming the columns; `name` and `file` are required, `triangles`, `sha256` and
 /// `license` optional; lines starting with `#` are comments). Returns the rows and
 /// warnings about malformed lines (which are skipped); `file` names the manifest in them.
-pub fn parse_manifest(text: &str, file: &Path) -> (Vec<ManifestRow>, Vec<String>) {
+pub fn parse_manifest(text: &str, file: &Path) -> (Vec<ManifestRow>, Vec<CatalogWarning>) {
     let mut rows = Vec::new();
     let mut warnings = Vec::new();
     let mut lines = text
@@ -524,10 +698,10 @@ pub fn parse_manifest(text: &str, file: &Path) -> (Vec<ManifestRow>, Vec<String>
         .collect();
     let col = |name: &str| cols.iter().position(|c| c == name);
     let (Some(name_col), Some(file_col)) = (col("name"), col("file")) else {
-        warnings.push(format!(
-            "{}: header lacks a `name` or `file` column",
-            file.display()
-        ));
+        warnings.push(CatalogWarning::MissingColumns {
+            file: file.to_path_buf(),
+            required: &["name", "file"],
+        });
         return (rows, warnings);
     };
     let (tri_col, sha_col, lic_col) = (col("triangles"), col("sha256"), col("license"));
@@ -538,25 +712,30 @@ pub fn parse_manifest(text: &str, file: &Path) -> (Vec<ManifestRow>, Vec<String>
                 .filter(|s| !s.is_empty())
                 .map(|s| s.to_string())
         };
+        let malformed = |column, value: Option<String>| CatalogWarning::MalformedRow {
+            file: file.to_path_buf(),
+            line: n + 1,
+            column,
+            value: value.unwrap_or_default(),
+        };
         let (Some(name), Some(f)) = (get(Some(name_col)), get(Some(file_col))) else {
-            warnings.push(format!(
-                "{}: line {}: missing name or file",
-                file.display(),
-                n + 1
-            ));
+            let column = if get(Some(name_col)).is_none() {
+                "name"
+            } else {
+                "file"
+            };
+            warnings.push(malformed(column, None));
             continue;
         };
-        let triangles = match get(tri_col).map(|t| t.replace([',', '_'], "").parse::<usize>()) {
+        let triangles = match get(tri_col) {
             None => None,
-            Some(Ok(t)) => Some(t),
-            Some(Err(_)) => {
-                warnings.push(format!(
-                    "{}: line {}: invalid triangle count",
-                    file.display(),
-                    n + 1
-                ));
-                None
-            }
+            Some(t) => match t.replace([',', '_'], "").parse::<usize>() {
+                Ok(t) => Some(t),
+                Err(_) => {
+                    warnings.push(malformed("triangles", Some(t)));
+                    None
+                }
+            },
         };
         rows.push(ManifestRow {
             name,
@@ -578,10 +757,15 @@ fn parse_vec3(s: &str) -> Option<Vec3A> {
     (v.len() == 3 && v.iter().all(|x| x.is_finite())).then(|| Vec3A::new(v[0], v[1], v[2]))
 }
 
-/// Parses a `cameras.tsv`: header `name eye target up fov_y_degrees` (tab-separated, in any
-/// order), vectors written `x,y,z`. Returns the cameras by name and warnings about
-/// malformed lines (which are skipped).
-pub fn parse_cameras(text: &str, file: &Path) -> (Vec<(String, Camera)>, Vec<String>) {
+/// Parses a `cameras.tsv`: tab-separated; lines starting with `#` are comments; the first
+/// other line is a header naming the columns `name`, `eye`, `target`, `up` and
+/// `fov_y_degrees` in any order (other columns are ignored); each row after it is one
+/// camera ([`Camera`]), vectors written `x,y,z` (finite `f32`s, read as Rust parses them, so
+/// a camera written with enough digits is read back bit for bit) and the field of view in
+/// degrees, strictly between 0 and 180. Returns the cameras by name, in file order, and
+/// warnings ([`CatalogWarning`]) about malformed rows and repeated names, which are skipped
+/// (the first row of a name is used); `file` names the file in them.
+pub fn parse_cameras(text: &str, file: &Path) -> (Vec<(String, Camera)>, Vec<CatalogWarning>) {
     let mut out = Vec::new();
     let mut warnings = Vec::new();
     let mut lines = text
@@ -603,34 +787,48 @@ pub fn parse_cameras(text: &str, file: &Path) -> (Vec<(String, Camera)>, Vec<Str
         col("up"),
         col("fov_y_degrees"),
     ) else {
-        warnings.push(format!(
-            "{}: header must name the columns name, eye, target, up, fov_y_degrees",
-            file.display()
-        ));
+        warnings.push(CatalogWarning::MissingColumns {
+            file: file.to_path_buf(),
+            required: &["name", "eye", "target", "up", "fov_y_degrees"],
+        });
         return (out, warnings);
     };
     for (n, line) in lines {
         let f: Vec<&str> = line.split('\t').map(str::trim).collect();
         let get = |c: usize| f.get(c).copied().unwrap_or("");
+        let malformed = |column: &'static str, c: usize| CatalogWarning::MalformedRow {
+            file: file.to_path_buf(),
+            line: n + 1,
+            column,
+            value: get(c).to_string(),
+        };
         let cam = (|| {
-            let fov = get(fov)
+            if get(name).is_empty() {
+                return Err(malformed("name", name));
+            }
+            let vec = |column, c| parse_vec3(get(c)).ok_or_else(|| malformed(column, c));
+            let fov_y = get(fov)
                 .parse::<f32>()
                 .ok()
-                .filter(|x| *x > 0.0 && *x < 180.0)?;
-            Some(Camera::new(
-                parse_vec3(get(eye))?,
-                parse_vec3(get(target))?,
-                parse_vec3(get(up))?,
-                fov,
+                .filter(|x| *x > 0.0 && *x < 180.0)
+                .ok_or_else(|| malformed("fov_y_degrees", fov))?;
+            Ok(Camera::new(
+                vec("eye", eye)?,
+                vec("target", target)?,
+                vec("up", up)?,
+                fov_y,
             ))
         })();
-        match (get(name), cam) {
-            (nm, Some(c)) if !nm.is_empty() => out.push((nm.to_string(), c)),
-            _ => warnings.push(format!(
-                "{}: line {}: malformed camera",
-                file.display(),
-                n + 1
-            )),
+        match cam {
+            Ok(_) if out.iter().any(|(nm, _)| nm == get(name)) => {
+                warnings.push(CatalogWarning::DuplicateCamera {
+                    file: file.to_path_buf(),
+                    line: n + 1,
+                    name: get(name).to_string(),
+                })
+            }
+            Ok(c) => out.push((get(name).to_string(), c)),
+            Err(w) => warnings.push(w),
         }
     }
     (out, warnings)

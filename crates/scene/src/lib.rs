@@ -14,7 +14,9 @@
 //!   [`uv_sphere`], [`torus`]);
 //! * [`Catalog`]: procedural scenes plus the scene files of the repository's `scenes/`, of
 //!   the folders in `SAHARA_SCENES` and of `../shared/scenes`, by name, with expected
-//!   triangle counts and checksums from each folder's `manifest.tsv`;
+//!   triangle counts and checksums from each folder's `manifest.tsv`, and cameras from each
+//!   folder's `cameras.tsv` over those of the named scenes (the repository's
+//!   `scenes/cameras.tsv`, [`named_cameras`]);
 //! * [`Scene`]: a named mesh with its [`SceneSource`] and a default [`Camera`].
 //!
 //! ```
@@ -50,10 +52,11 @@ mod procedural;
 mod scene;
 mod shapes;
 
-pub use camera::{default_camera, up_axis_of, Camera, UpAxis};
+pub use camera::{Camera, UpAxis};
 pub use catalog::{
-    parse_cameras, parse_manifest, search_dirs, sha256_file, workspace_root, Catalog, CatalogEntry,
-    EntryKind, ManifestRow, Origin, SCENES_ENV,
+    default_camera, named_cameras, parse_cameras, parse_manifest, search_dirs, sha256_file,
+    workspace_root, Catalog, CatalogEntry, CatalogWarning, EntryKind, ManifestRow, Origin,
+    EMBEDDED_CAMERAS, SCENES_ENV,
 };
 pub use error::SceneError;
 pub use gltf_load::{load_gltf, parse_gltf};

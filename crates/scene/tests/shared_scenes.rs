@@ -66,13 +66,19 @@ fn glb_matches_its_obj() {
     assert_eq!(sb.index_degenerate, 11_154);
 }
 
+/// The named scenes of the shared folder get the cameras of `scenes/cameras.tsv`, bit for bit
+/// the ones the evaluation always used.
 #[test]
-fn interiors_have_their_cameras() {
+fn named_scenes_have_their_cameras() {
     let Some(c) = shared_catalog() else { return };
-    if let Some(e) = c.get("sponza_dabrovic") {
-        let s = c.load_entry(e).unwrap();
-        assert_eq!(s.camera.eye, sahara_scene::Vec3A::new(-14.0, 2.5, 0.0));
-        assert_eq!(s.camera.fov_y_degrees, 60.0);
+    for (name, old) in common::old_cameras() {
+        let Some(e) = c.get(name) else { continue };
+        let camera = e.camera.unwrap_or_else(|| panic!("{name}: no camera"));
+        assert_eq!(
+            common::camera_bits(&camera),
+            common::camera_bits(&old),
+            "{name}"
+        );
     }
 }
 

@@ -77,3 +77,49 @@ pub fn shared_scenes() -> Option<PathBuf> {
     let d = root.parent()?.join("shared").join("scenes");
     d.join("manifest.tsv").is_file().then_some(d)
 }
+
+/// The cameras of the named scenes as they were hard-coded in `src/camera.rs` before they
+/// moved to the repository's `scenes/cameras.tsv`: the evaluation's rays depend on them, so
+/// the table must keep giving exactly these, bit for bit.
+pub fn old_cameras() -> Vec<(&'static str, sahara_scene::Camera)> {
+    use sahara_scene::{Camera, Vec3A};
+    vec![
+        (
+            "sponza_dabrovic",
+            Camera::new(
+                Vec3A::new(-14.0, 2.5, 0.0),
+                Vec3A::new(0.0, 5.0, 0.0),
+                Vec3A::Y,
+                60.0,
+            ),
+        ),
+        (
+            "sibenik",
+            Camera::new(
+                Vec3A::new(-18.0, -10.0, 0.0),
+                Vec3A::new(0.0, -8.0, 0.0),
+                Vec3A::Y,
+                60.0,
+            ),
+        ),
+        (
+            "san_francisco_osm",
+            Camera::new(
+                Vec3A::new(102.6, -1000.0, 600.0),
+                Vec3A::new(102.6, -4.2, 0.0),
+                Vec3A::Z,
+                45.0,
+            ),
+        ),
+    ]
+}
+
+/// The bits of a camera's ten numbers (so that `-0.0` and `0.0` differ).
+pub fn camera_bits(c: &sahara_scene::Camera) -> Vec<u32> {
+    [c.eye.to_array(), c.target.to_array(), c.up.to_array()]
+        .concat()
+        .into_iter()
+        .chain([c.fov_y_degrees])
+        .map(f32::to_bits)
+        .collect()
+}
