@@ -681,3 +681,306 @@ fn find<'a>(
             && t.report.ray_kind == kind
     })
 }
+
+#[cfg(test)]
+mod tests {
+    //! Golden test: [`write_all`] on a small fixed [`Results`] must give, byte for byte, the
+    //! `report.md`, `report.html` and `results.csv` recorded under `xtask/tests/data/report/`.
+    //! A change to the report on purpose re-records them (`SAHARA_RECORD_REPORT=1 cargo test -p
+    //! xtask golden_report`) in the same commit, and the diff of the recorded files shows it.
+
+    use super::*;
+    use crate::bvh_cmd::BuildReport;
+    use crate::eval::predict::{PredictedPoint, PredictorRow};
+    use crate::eval::{file_stem, Meta, SceneInfo, Settings};
+    use crate::scaling::Series;
+    use crate::trace_cmd::TraceReport;
+    use crate::util::Spread;
+    use sahara_metrics::{CostModel, ForecastReport};
+    use sahara_trace::{Throughput, Timing, WorkPerRay};
+    use std::path::PathBuf;
+
+    const BUILDERS: [&str; 4] = ["sweep", "sbvh", "binned", "tsah-sbvh"];
+    const KINDS: [&str; 2] = ["primary", "ao"];
+    const LAYOUTS: [&str; 2] = ["bvh2", "bvh4"];
+
+    fn spread(median: f64) -> Spread {
+        Spread {
+            median,
+            min: 0.9 * median,
+            max: 1.25 * median,
+        }
+    }
+
+    /// Two scenes (one with characters that need escaping), four builders (two spatial), two
+    /// ray types and two layouts; with holes where the report prints "–": a builder without
+    /// traces, a scene without a sweep trace, predictors without scores, a scaling series
+    /// without a point, and one heat map whose image is missing.
+    fn results() -> Results {
+        let settings = Settings {
+            quick: true,
+            scenes: vec!["cube".into(), "a<b> & c".into()],
+            builders: BUILDERS.map(String::from).to_vec(),
+            rays: KINDS.map(String::from).to_vec(),
+            layouts: LAYOUTS.map(String::from).to_vec(),
+            width: 32,
+            height: 24,
+            passes: 3,
+            build_runs: 3,
+            threads: 2,
+            seed: 1,
+            cost_model: CostModel::default(),
+        };
+        let scenes: Vec<SceneInfo> = [("cube", 12usize), ("a<b> & c", 3000)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(name, triangles))| SceneInfo {
+                name: name.into(),
+                triangles,
+                render: (i == 0).then(|| "images/cube-render.png".to_string()),
+                heat_maps: BUILDERS
+                    .iter()
+                    .take(2)
+                    .map(|b| {
+                        (
+                            b.to_string(),
+                            format!("images/{}-{b}-heat.png", file_stem(name)),
+                        )
+                    })
+                    .collect(),
+                heat_scale: 40.0 + 7.5 * i as f64,
+            })
+            .collect();
+        let mut builds = Vec::new();
+        let mut traces: Vec<TraceRow> = Vec::new();
+        for (si, sc) in scenes.iter().enumerate() {
+            for (bi, b) in BUILDERS.iter().enumerate() {
+                let f = 1.0 + 0.125 * bi as f64 + 0.5 * si as f64;
+                builds.push(BuildReport {
+                    scene: sc.name.clone(),
+                    triangles: sc.triangles,
+                    builder: b.to_string(),
+                    config: String::new(),
+                    threads: 2,
+                    build_ms: spread(0.75 * f * f * (1 + 99 * si) as f64),
+                    sah: 10.0 / f,
+                    epo: (bi != 2).then_some(2.5 / f),
+                    nodes: 2 * sc.triangles / (bi + 1) - 1,
+                    leaves: sc.triangles / (bi + 1),
+                    references: sc.triangles + bi * si * 17,
+                    max_leaf: 4 + bi,
+                    depth: 6 + bi + 3 * si,
+                });
+                if *b == "binned" && si == 1 {
+                    continue; // a builder without traces on this scene
+                }
+                for (li, layout) in LAYOUTS.iter().enumerate() {
+                    for (ki, kind) in KINDS.iter().enumerate() {
+                        if *b == "sweep" && si == 1 && ki == 1 {
+                            continue; // no reference: the ratios are None
+                        }
+                        let g = f * (1.0 + 0.25 * li as f64) * (1.0 + 0.5 * ki as f64);
+                        let m = 12.0 / g;
+                        let rep = TraceReport {
+                            scene: sc.name.clone(),
+                            triangles: sc.triangles,
+                            builder: b.to_string(),
+                            layout: layout.to_string(),
+                            ray_kind: kind.to_string(),
+                            rays: 768,
+                            threads: 2,
+                            mrays_s: Throughput {
+                                median: m,
+                                min: 0.8 * m,
+                                max: 1.1 * m,
+                            },
+                            trace_ms: Timing {
+                                median: 0.064 * g,
+                                min: 0.058 * g,
+                                max: 0.08 * g,
+                                passes: 3,
+                            },
+                            work: WorkPerRay {
+                                inner: 8.0 * g,
+                                leaves: 2.0 * g,
+                                triangles: 5.0 * g,
+                            },
+                            inner_per_ray: 8.0 * g,
+                            leaves_per_ray: 2.0 * g,
+                            triangles_per_ray: 5.0 * g,
+                            lcv: 1.5 * g,
+                            hits: 700 - 100 * ki,
+                            checksum: format!("{:016x}", 0x5eed + 31 * traces.len()),
+                        };
+                        traces.push(TraceRow {
+                            work_cost: 8.0 * g + 5.0 * g * (1.0 + 0.0625 * bi as f64),
+                            report: rep,
+                            speed_vs_sweep: None,
+                            work_vs_sweep: None,
+                            speed_vs_sbvh: None,
+                            work_vs_sbvh: None,
+                        });
+                    }
+                }
+            }
+        }
+        let split = traces
+            .iter()
+            .position(|t| t.report.scene != scenes[0].name)
+            .unwrap();
+        let (a, b) = traces.split_at_mut(split);
+        super::super::relate(a);
+        super::super::relate(b);
+        let forecast = |e: f64, rho: Option<f64>| ForecastReport {
+            alpha: 0.5,
+            samples: 6,
+            mean_relative_error: e,
+            max_relative_error: 2.5 * e,
+            spearman: rho,
+            mean_scene_spearman: rho.map(|r| r - 0.1),
+        };
+        let predictors = vec![
+            PredictorRow {
+                ray_kind: "primary".into(),
+                predictor: "SAH-EPO".into(),
+                target: "time".into(),
+                alpha: Some(0.4375),
+                report: Some(forecast(0.0625, Some(0.875))),
+                note: "fitted".into(),
+            },
+            PredictorRow {
+                ray_kind: "ao".into(),
+                predictor: "SAH".into(),
+                target: "work".into(),
+                alpha: None,
+                report: Some(forecast(0.125, None)),
+                note: "`alpha` fixed at **0**".into(),
+            },
+            PredictorRow {
+                ray_kind: "ao".into(),
+                predictor: "ray-weighted".into(),
+                target: "time".into(),
+                alpha: None,
+                report: None,
+                note: "no samples <here>".into(),
+            },
+        ];
+        let mut predicted_points = Vec::new();
+        for (ki, kind) in KINDS.iter().enumerate() {
+            for (bi, b) in BUILDERS.iter().enumerate().skip(1) {
+                for p in ["SAH", "SAH-EPO"] {
+                    let x = 1.0 + 0.125 * bi as f64 + 0.0625 * ki as f64;
+                    predicted_points.push(PredictedPoint {
+                        ray_kind: kind.to_string(),
+                        predictor: p.into(),
+                        scene: "cube".into(),
+                        builder: b.to_string(),
+                        predicted: x,
+                        measured: if p == "SAH" {
+                            1.5 * x - 0.5
+                        } else {
+                            x + 0.03125
+                        },
+                    });
+                }
+            }
+        }
+        let scaling = vec![
+            Series {
+                builder: "sweep".into(),
+                points: vec![(1000, spread(0.002)), (4000, spread(0.009))],
+                exponent: Some(1.085),
+                exponent_large: None,
+            },
+            Series {
+                builder: "binned".into(),
+                points: vec![(1000, spread(0.0005))],
+                exponent: None,
+                exponent_large: None,
+            },
+        ];
+        Results {
+            meta: Meta {
+                date: "2024-01-02T03-04-05".into(),
+                commit: "0123abc".into(),
+                cpu: "Test CPU <2 cores>".into(),
+                simd: "sse2".into(),
+                settings,
+                seconds: 61.5,
+            },
+            scenes,
+            skipped: vec![
+                "tsah-exhaustive on cube (12 triangles; name it with --builders to run it)".into(),
+            ],
+            builds,
+            traces,
+            predictors,
+            predicted_points,
+            scaling,
+        }
+    }
+
+    fn golden_dir() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/report")
+    }
+
+    /// The line number and both lines at the first difference (`None`: equal).
+    fn first_difference(want: &str, got: &str) -> Option<(usize, String, String)> {
+        if want == got {
+            return None;
+        }
+        let (mut w, mut g) = (want.split('\n'), got.split('\n'));
+        for n in 1.. {
+            match (w.next(), g.next()) {
+                (Some(a), Some(b)) if a == b => continue,
+                (a, b) => {
+                    let show = |l: Option<&str>| {
+                        l.map_or("<end of file>".to_string(), |l| {
+                            l.chars().take(400).collect()
+                        })
+                    };
+                    return Some((n, show(a), show(b)));
+                }
+            }
+        }
+        unreachable!()
+    }
+
+    #[test]
+    fn golden_report() {
+        let dir = std::env::temp_dir().join(format!("sahara-golden-report-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("plots")).unwrap();
+        std::fs::create_dir_all(dir.join("images")).unwrap();
+        // Stand-ins for PNGs (the HTML embeds the bytes as they are); the second heat map of
+        // the second scene stays missing.
+        std::fs::write(dir.join("images/cube-render.png"), b"render").unwrap();
+        std::fs::write(dir.join("images/cube-sweep-heat.png"), b"heat\x00sweep").unwrap();
+        std::fs::write(dir.join("images/cube-sbvh-heat.png"), b"heat\xffsbvh").unwrap();
+        std::fs::write(dir.join("images/a_b____c-sweep-heat.png"), b"h").unwrap();
+        write_all(&dir, &results()).unwrap();
+        let record = std::env::var_os("SAHARA_RECORD_REPORT").is_some_and(|v| v != "0");
+        let golden = golden_dir();
+        let mut failures = Vec::new();
+        for file in ["report.md", "report.html", "results.csv"] {
+            let got = std::fs::read_to_string(dir.join(file)).unwrap();
+            if record {
+                std::fs::create_dir_all(&golden).unwrap();
+                std::fs::write(golden.join(file), &got).unwrap();
+                continue;
+            }
+            let want = std::fs::read_to_string(golden.join(file)).unwrap_or_default();
+            if let Some((line, w, g)) = first_difference(&want, &got) {
+                failures.push(format!(
+                    "{file} differs from tests/data/report/{file} at line {line}:\n  want: {w}\n  got:  {g}"
+                ));
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(
+            failures.is_empty(),
+            "{}\n(re-record with SAHARA_RECORD_REPORT=1 if the change is meant)",
+            failures.join("\n")
+        );
+    }
+}
