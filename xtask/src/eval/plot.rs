@@ -44,7 +44,8 @@ const PALETTE: [&str; 10] = [
     "#7f7f7f", "#bcbd22",
 ];
 
-fn esc(s: &str) -> String {
+/// `s` with `&`, `<` and `>` escaped for HTML and SVG text.
+pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")

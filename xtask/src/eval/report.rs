@@ -1,25 +1,540 @@
 //! Writes `results.json`, `results.csv`, `report.md` and a self-contained `report.html`
 //! (tables, inline SVG plots, PNG images embedded as data URLs) from one [`Results`].
+//!
+//! The report is a list of [`Block`]s, rendered once as Markdown and once as HTML. Each section
+//! is one function appending its blocks to a [`Doc`]; [`report`] calls them in order.
 
-use super::plot::{fmt_num, Plot, Point};
-use super::{Results, TraceRow, REFERENCE, SPATIAL_REFERENCE};
+use super::plot::{esc, fmt_num, Plot, Point};
+use super::{Results, TraceRow, REFERENCE};
 use anyhow::Result;
 use base64::Engine;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// Writes every output file of the run into `dir` (which has a `plots/` folder, and the
+/// `images/` the scenes name).
+pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
+    std::fs::write(dir.join("results.json"), serde_json::to_string_pretty(r)?)?;
+    std::fs::write(dir.join("results.csv"), csv(r))?;
+    let d = report(&Ctx::new(r));
+    for b in &d.blocks {
+        if let Block::Svg { path, svg, .. } = b {
+            std::fs::write(dir.join(path), svg)?;
+        }
+    }
+    std::fs::write(dir.join("report.md"), d.markdown())?;
+    std::fs::write(dir.join("report.html"), d.html(dir))?;
+    Ok(())
+}
+
+/// The report: its sections in order.
+fn report(c: &Ctx) -> Doc {
+    let mut d = Doc::default();
+    run_notes(&mut d, c);
+    sweep_tables(&mut d, c);
+    sbvh_table(&mut d, c);
+    scene_tables(&mut d, c);
+    speed_against_error(&mut d, c);
+    predictors(&mut d, c);
+    scaling(&mut d, c);
+    heat_maps(&mut d, c);
+    d
+}
+
+// ---------------------------------------------------------------------------------------
+// Sections.
+
+/// Title and protocol: machine, commit, cost model, image size, passes and runs, seed; what
+/// the ratios mean; the builders left out as impractical.
+fn run_notes(d: &mut Doc, c: &Ctx) {
+    let (r, s) = (c.r, &c.r.meta.settings);
+    d.h(1, "sahara evaluation");
+    d.p(format!(
+        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all. Cost model c_t = {}, c_i = {}. \
+         Images {}×{}; each trace is the median of {} passes after one warm-up pass (spread given as min–max); \
+         each build the median of up to {} runs (builds over 5 s on large scenes run once). Secondary-ray seed {}.{}",
+        r.meta.date,
+        r.meta.commit,
+        r.meta.cpu,
+        s.threads,
+        r.meta.simd,
+        r.meta.seconds,
+        s.cost_model.traversal,
+        s.cost_model.intersection,
+        s.width,
+        s.height,
+        s.passes,
+        s.build_runs,
+        s.seed,
+        if s.quick { " This is the **--quick** matrix." } else { "" }
+    ));
+    d.p("Speed ratios are taken within one run on the same rays: > 1 means faster than the reference tree. \
+         Work ratios compare the work per ray in SAH units (c_t · inner nodes visited + c_i · triangles tested), \
+         which machine noise cannot touch: > 1 means less work than the reference.");
+    if !r.skipped.is_empty() {
+        d.p(format!(
+            "Left out as impractical at this size (minutes per build on two cores): {}.",
+            r.skipped.join("; ")
+        ));
+    }
+}
+
+/// The headline: per ray type, speed (work) of every builder relative to the sweep tree on
+/// each scene, first layout, with the geometric mean over scenes.
+fn sweep_tables(d: &mut Doc, c: &Ctx) {
+    d.h(
+        2,
+        format!(
+            "Trace performance relative to full-sweep SAH ({})",
+            c.layout0
+        ),
+    );
+    for kind in &c.kinds {
+        d.h(3, format!("{kind} rays: speed (work) relative to sweep"));
+        let mut rows = Vec::new();
+        let mut per_builder: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+        for sc in &c.r.scenes {
+            let mut row = vec![sc.name.clone()];
+            for &b in &c.builders {
+                row.push(match c.trace(&sc.name, b, kind) {
+                    Some(t) => {
+                        let e = per_builder.entry(b).or_default();
+                        e.0.extend(t.speed_vs_sweep);
+                        e.1.extend(t.work_vs_sweep);
+                        speed_work(t.speed_vs_sweep, t.work_vs_sweep)
+                    }
+                    None => NONE.into(),
+                });
+            }
+            rows.push(row);
+        }
+        let mut mean = vec!["**geometric mean**".to_string()];
+        for b in &c.builders {
+            let (speed, work) = per_builder.get(b).cloned().unwrap_or_default();
+            mean.push(speed_work(geomean(&speed), geomean(&work)));
+        }
+        rows.push(mean);
+        d.table(column_heads("scene", &c.builders), rows);
+    }
+}
+
+/// The spatial-split builders' speed (work) relative to SBVH, per scene and ray type, first
+/// layout (only with more than one spatial-split builder).
+fn sbvh_table(d: &mut Doc, c: &Ctx) {
+    let spatial: Vec<&str> = c
+        .builders
+        .iter()
+        .copied()
+        .filter(|b| {
+            sahara_builders::registry::entries()
+                .iter()
+                .any(|e| e.name == *b && e.spatial)
+        })
+        .collect();
+    if spatial.len() <= 1 {
+        return;
+    }
+    d.h(
+        2,
+        format!("Spatial-split builders relative to SBVH ({})", c.layout0),
+    );
+    let mut rows = Vec::new();
+    for sc in &c.r.scenes {
+        for kind in &c.kinds {
+            let mut row = vec![format!("{} / {kind}", sc.name)];
+            for b in &spatial {
+                row.push(
+                    c.trace(&sc.name, b, kind)
+                        .map_or(NONE.into(), |t| speed_work(t.speed_vs_sbvh, t.work_vs_sbvh)),
+                );
+            }
+            rows.push(row);
+        }
+    }
+    d.table(column_heads("scene / rays", &spatial), rows);
+}
+
+/// Per scene: every tree's build time, SAH, EPO and shape, then every trace (builder, layout,
+/// ray type) with its speed, work per ray and comparisons.
+fn scene_tables(d: &mut Doc, c: &Ctx) {
+    d.h(2, "Trees: build time, SAH and EPO");
+    for sc in &c.r.scenes {
+        d.h(3, format!("{} ({} triangles)", sc.name, sc.triangles));
+        let builds = c.r.builds.iter().filter(|b| b.scene == sc.name);
+        d.table(
+            [
+                "builder",
+                "build ms median [min–max]",
+                "SAH",
+                "EPO",
+                "nodes",
+                "references",
+                "max leaf",
+                "depth",
+            ],
+            builds
+                .map(|b| {
+                    vec![
+                        b.builder.clone(),
+                        spread(b.build_ms.median, b.build_ms.min, b.build_ms.max, fmt_num),
+                        format!("{:.3}", b.sah),
+                        or_none(b.epo, |e| format!("{e:.3}")),
+                        b.nodes.to_string(),
+                        b.references.to_string(),
+                        b.max_leaf.to_string(),
+                        b.depth.to_string(),
+                    ]
+                })
+                .collect(),
+        );
+        let traces = c.r.traces.iter().filter(|t| t.report.scene == sc.name);
+        d.table(
+            [
+                "builder / layout / rays",
+                "Mrays/s median [min–max]",
+                "speed vs sweep",
+                "inner/ray",
+                "leaves/ray",
+                "tris/ray",
+                "work vs sweep",
+                "LCV",
+                "hits",
+            ],
+            traces
+                .map(|t| {
+                    let x = &t.report;
+                    let f2 = |v: f64| format!("{v:.2}");
+                    vec![
+                        format!("{} / {} / {}", x.builder, x.layout, x.ray_kind),
+                        spread(x.mrays_s.median, x.mrays_s.min, x.mrays_s.max, f2),
+                        ratio(t.speed_vs_sweep),
+                        f2(x.inner_per_ray),
+                        f2(x.leaves_per_ray),
+                        f2(x.triangles_per_ray),
+                        ratio(t.work_vs_sweep),
+                        f2(x.lcv),
+                        x.hits.to_string(),
+                    ]
+                })
+                .collect(),
+        );
+    }
+}
+
+/// The speed-against-error plot: each builder's build time against its trace time, both
+/// relative to sweep, with the Pareto front.
+fn speed_against_error(d: &mut Doc, c: &Ctx) {
+    d.h(2, "Build time against trace cost (speed against error)");
+    d.p("Each point is a builder: x = build time relative to sweep (geometric mean over scenes), \
+         y = trace time relative to sweep (geometric mean over scenes and ray types, first layout). \
+         The dashed line joins the Pareto front: no other builder is both faster to build and faster to trace.");
+    let plot = Plot {
+        title: "Build time against trace time (relative to sweep)".into(),
+        x_label: "build time / sweep".into(),
+        y_label: "trace time / sweep".into(),
+        log_x: true,
+        pareto: true,
+        labels: true,
+        points: c.builders.iter().filter_map(|b| cost_point(c, b)).collect(),
+        ..Default::default()
+    };
+    d.svg("plots/speed-vs-error.svg", "speed against error", plot);
+}
+
+/// The trace-cost predictors: their fitted α and forecasting errors per ray type, and one
+/// predicted-against-measured plot per ray type (when the run evaluated predictors).
+fn predictors(d: &mut Doc, c: &Ctx) {
+    if c.r.predictors.is_empty() {
+        return;
+    }
+    d.h(2, "Trace-cost predictors");
+    d.p("Per ray type, each predictor forecasts the trace cost of every tree normalised to the sweep tree of its scene. \
+         α is fitted by least squares on relative errors over all builders and scenes of this run (clamped to [0, 1]). \
+         Errors are over the non-reference trees; ρ is Spearman's rank correlation (pooled, and the mean of the per-scene values).");
+    let f3 = |v: f64| format!("{v:.3}");
+    let percent = |v: f64| format!("{:.1}%", 100.0 * v);
+    d.table(
+        [
+            "rays",
+            "predictor",
+            "measured",
+            "α",
+            "mean error",
+            "max error",
+            "ρ pooled",
+            "ρ per scene",
+            "note",
+        ],
+        c.r.predictors
+            .iter()
+            .map(|p| {
+                let score = p.report.as_ref();
+                vec![
+                    p.ray_kind.clone(),
+                    p.predictor.clone(),
+                    p.target.clone(),
+                    or_none(p.alpha, f3),
+                    or_none(score.map(|x| x.mean_relative_error), percent),
+                    or_none(score.map(|x| x.max_relative_error), percent),
+                    or_none(score.and_then(|x| x.spearman), f3),
+                    or_none(score.and_then(|x| x.mean_scene_spearman), f3),
+                    p.note.clone(),
+                ]
+            })
+            .collect(),
+    );
+    let mut by_kind: BTreeMap<&str, Vec<Point>> = BTreeMap::new();
+    for p in &c.r.predicted_points {
+        by_kind.entry(p.ray_kind.as_str()).or_default().push(Point {
+            x: p.predicted,
+            y: p.measured,
+            label: format!("{} {}", p.scene, p.builder),
+            series: p.predictor.clone(),
+        });
+    }
+    for (kind, points) in by_kind {
+        let plot = Plot {
+            title: format!("{kind} rays: predicted against measured time (relative to sweep)"),
+            x_label: "predicted".into(),
+            y_label: "measured".into(),
+            diagonal: true,
+            points,
+            ..Default::default()
+        };
+        d.svg(
+            format!("plots/predicted-{kind}.svg"),
+            format!("predicted against measured, {kind}"),
+            plot,
+        );
+    }
+}
+
+/// Build time against N on growing procedural soups: a table with the fitted exponents and a
+/// log–log plot (when the run measured it).
+fn scaling(d: &mut Doc, c: &Ctx) {
+    let series = &c.r.scaling;
+    if series.is_empty() {
+        return;
+    }
+    d.h(2, "Build time against N (complexity)");
+    d.p("Procedural triangle soups of growing size; the exponent b of time ≈ a·N^b is fitted by least squares on log–log \
+         (over all sizes, and over N ≥ 10^4). N log N shows as b slightly above 1, N log² N a little higher, N² as 2.");
+    let sizes = distinct(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let mut head = vec!["builder".to_string()];
+    head.extend(sizes.iter().map(|n| format!("N={n} (ms)")));
+    head.extend(["b (all)".into(), "b (N≥1e4)".into()]);
+    let f2 = |e: f64| format!("{e:.2}");
+    let mut rows = Vec::new();
+    let mut points = Vec::new();
+    for sr in series {
+        let ms = |n: &usize| {
+            sr.points
+                .iter()
+                .find(|p| p.0 == *n)
+                .map(|p| p.1.median * 1e3)
+        };
+        let mut row = vec![sr.builder.clone()];
+        row.extend(sizes.iter().map(|n| or_none(ms(n), fmt_num)));
+        row.push(or_none(sr.exponent, f2));
+        row.push(or_none(sr.exponent_large, f2));
+        rows.push(row);
+        points.extend(sr.points.iter().map(|p| Point {
+            x: p.0 as f64,
+            y: p.1.median * 1e3,
+            label: sr.builder.clone(),
+            series: sr.builder.clone(),
+        }));
+    }
+    d.table(head, rows);
+    let plot = Plot {
+        title: "Build time against N".into(),
+        x_label: "triangles".into(),
+        y_label: "build ms".into(),
+        log_x: true,
+        log_y: true,
+        lines: true,
+        points,
+        ..Default::default()
+    };
+    d.svg("plots/scaling.svg", "build time against N", plot);
+}
+
+/// Per scene: its render and every tree's heat map of primary-ray work, on the scene's shared
+/// colour scale.
+fn heat_maps(d: &mut Doc, c: &Ctx) {
+    d.h(2, "Renders and work heat maps (primary rays)");
+    d.p(format!(
+        "Heat maps show inner nodes + leaves + triangles visited per pixel (bvh2 layout). All heat maps of a scene share one colour scale (viridis, dark = little work), topping out at the largest of the trees' {:.0}th percentiles of per-pixel work, so the same colour means the same work in every image of the scene.",
+        super::HEAT_PERCENTILE
+    ));
+    for sc in &c.r.scenes {
+        d.h(3, sc.name.clone());
+        d.p(format!(
+            "Top of the colour scale: {:.0} work units per pixel.",
+            sc.heat_scale
+        ));
+        let render = sc
+            .render
+            .iter()
+            .map(|p| (p.clone(), format!("{} render", sc.name)));
+        let heat = sc
+            .heat_maps
+            .iter()
+            .map(|(b, p)| (p.clone(), format!("{b} heat map")));
+        d.gallery(render.chain(heat).collect());
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// What the sections share.
+
+/// What every section reads: the results, and what is chosen from them once.
+struct Ctx<'a> {
+    r: &'a Results,
+    /// The layout of the summary tables and plots: the first one traced.
+    layout0: String,
+    /// The builders, in the order of the settings.
+    builders: Vec<&'a str>,
+    /// The ray types, in the order they were traced.
+    kinds: Vec<&'a str>,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(r: &'a Results) -> Self {
+        let s = &r.meta.settings;
+        Ctx {
+            r,
+            layout0: s.layouts.first().cloned().unwrap_or_else(|| "bvh2".into()),
+            builders: s.builders.iter().map(String::as_str).collect(),
+            kinds: distinct(r.traces.iter().map(|t| t.report.ray_kind.as_str())),
+        }
+    }
+
+    /// The trace of `builder`'s tree on `scene` with `kind` rays, in the first layout.
+    fn trace(&self, scene: &str, builder: &str, kind: &str) -> Option<&'a TraceRow> {
+        self.r.traces.iter().find(|t| {
+            t.report.scene == scene
+                && t.report.builder == builder
+                && t.report.layout == self.layout0
+                && t.report.ray_kind == kind
+        })
+    }
+}
+
+/// `builder`'s point on the speed-against-error plot: its build time relative to sweep
+/// (geometric mean over scenes) against its trace time relative to sweep (over scenes and ray
+/// types, first layout); `None` when either is unknown.
+fn cost_point(c: &Ctx, builder: &str) -> Option<Point> {
+    let mut build = Vec::new();
+    let mut trace = Vec::new();
+    for sc in &c.r.scenes {
+        let time = |b: &str| {
+            c.r.builds
+                .iter()
+                .find(|x| x.scene == sc.name && x.builder == b)
+                .map(|x| x.build_ms.median)
+        };
+        if let (Some(t), Some(rf)) = (time(builder), time(REFERENCE)) {
+            if rf > 0.0 {
+                build.push(t / rf);
+            }
+        }
+        trace.extend(
+            c.r.traces
+                .iter()
+                .filter(|t| {
+                    t.report.scene == sc.name
+                        && t.report.builder == builder
+                        && t.report.layout == c.layout0
+                })
+                .filter_map(|t| t.speed_vs_sweep.map(|sp| 1.0 / sp)),
+        );
+    }
+    Some(Point {
+        x: geomean(&build)?,
+        y: geomean(&trace)?,
+        label: builder.to_string(),
+        series: builder.to_string(),
+    })
+}
+
+/// The items of `it` without repeats, in order of first appearance.
+fn distinct<T: PartialEq>(it: impl IntoIterator<Item = T>) -> Vec<T> {
+    let mut v = Vec::new();
+    for x in it {
+        if !v.contains(&x) {
+            v.push(x);
+        }
+    }
+    v
+}
+
+/// Geometric mean (ignores non-positive values).
+fn geomean(v: &[f64]) -> Option<f64> {
+    let v: Vec<f64> = v
+        .iter()
+        .copied()
+        .filter(|x| *x > 0.0 && x.is_finite())
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    Some((v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
+}
+
+/// What a table cell shows for a missing value.
+const NONE: &str = "–";
+
+/// `x` formatted by `f`, or [`NONE`].
+fn or_none<T>(x: Option<T>, f: impl FnOnce(T) -> String) -> String {
+    x.map_or_else(|| NONE.into(), f)
+}
+
+/// A ratio to three decimals.
+fn ratio(x: Option<f64>) -> String {
+    or_none(x, |v| format!("{v:.3}"))
+}
+
+/// A speed ratio with its work ratio in parentheses: `1.020 (0.980)`.
+fn speed_work(speed: Option<f64>, work: Option<f64>) -> String {
+    format!("{} ({})", ratio(speed), ratio(work))
+}
+
+/// A median with its range: `12.00 [9.60–13.20]`.
+fn spread(median: f64, min: f64, max: f64, f: impl Fn(f64) -> String) -> String {
+    format!("{} [{}–{}]", f(median), f(min), f(max))
+}
+
+/// A table head: `first`, then one column per name.
+fn column_heads(first: &str, names: &[&str]) -> Vec<String> {
+    std::iter::once(first)
+        .chain(names.iter().copied())
+        .map(String::from)
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------
+// The document and its two renderings.
+
 /// A piece of the report, rendered both as Markdown and as HTML.
 enum Block {
     Heading(u8, String),
+    /// A paragraph; `**bold**` and `` `code` `` are marked up in HTML.
     Para(String),
+    /// Head and rows; the first column is left-aligned, the others right-aligned.
     Table(Vec<String>, Vec<Vec<String>>),
-    /// An SVG plot: file name (relative), alt text, document.
-    Svg(String, String, String),
-    /// A row of images with captions.
+    /// An SVG plot: file name (relative to the report), alt text, document.
+    Svg {
+        path: String,
+        alt: String,
+        svg: String,
+    },
+    /// A row of images (file name relative to the report, caption).
     Gallery(Vec<(String, String)>),
 }
 
+#[derive(Default)]
 struct Doc {
     blocks: Vec<Block>,
 }
@@ -28,76 +543,54 @@ impl Doc {
     fn h(&mut self, level: u8, s: impl Into<String>) {
         self.blocks.push(Block::Heading(level, s.into()));
     }
+
     fn p(&mut self, s: impl Into<String>) {
         self.blocks.push(Block::Para(s.into()));
     }
-    fn table(&mut self, head: &[&str], rows: Vec<Vec<String>>) {
-        self.blocks.push(Block::Table(
-            head.iter().map(|s| s.to_string()).collect(),
-            rows,
-        ));
+
+    fn table<S: Into<String>>(
+        &mut self,
+        head: impl IntoIterator<Item = S>,
+        rows: Vec<Vec<String>>,
+    ) {
+        let head = head.into_iter().map(Into::into).collect();
+        self.blocks.push(Block::Table(head, rows));
+    }
+
+    /// `plot`, saved as `path` (written by [`write_all`]) and drawn inline in HTML.
+    fn svg(&mut self, path: impl Into<String>, alt: impl Into<String>, plot: Plot) {
+        self.blocks.push(Block::Svg {
+            path: path.into(),
+            alt: alt.into(),
+            svg: plot.svg(),
+        });
+    }
+
+    fn gallery(&mut self, items: Vec<(String, String)>) {
+        self.blocks.push(Block::Gallery(items));
     }
 
     fn markdown(&self) -> String {
         let mut s = String::new();
         for b in &self.blocks {
-            match b {
-                Block::Heading(l, t) => {
-                    let _ = writeln!(s, "{} {t}\n", "#".repeat(*l as usize));
-                }
-                Block::Para(t) => {
-                    let _ = writeln!(s, "{t}\n");
-                }
-                Block::Table(head, rows) => {
-                    let _ = writeln!(s, "| {} |", head.join(" | "));
-                    let _ = writeln!(
-                        s,
-                        "|{}|",
-                        head.iter()
-                            .enumerate()
-                            .map(|(i, _)| if i == 0 { "---" } else { "---:" })
-                            .collect::<Vec<_>>()
-                            .join("|")
-                    );
-                    for r in rows {
-                        let _ = writeln!(s, "| {} |", r.join(" | "));
-                    }
-                    s.push('\n');
-                }
-                Block::Svg(path, alt, _) => {
-                    let _ = writeln!(s, "![{alt}]({path})\n");
-                }
-                Block::Gallery(items) => {
-                    for (path, cap) in items {
-                        let _ = write!(s, "![{cap}]({path}) ");
-                    }
-                    s.push_str("\n\n");
-                    let caps: Vec<&str> = items.iter().map(|(_, c)| c.as_str()).collect();
-                    let _ = writeln!(s, "*{}*\n", caps.join(" · "));
-                }
-            }
+            b.markdown(&mut s);
         }
         s
     }
 
+    /// The HTML page; images are read from `dir` and embedded.
     fn html(&self, dir: &Path) -> String {
-        let esc = |t: &str| {
-            t.replace('&', "&amp;")
-                .replace('<', "&lt;")
-                .replace('>', "&gt;")
-        };
-        let img = |path: &str, alt: &str| -> String {
-            match std::fs::read(dir.join(path)) {
-                Ok(bytes) => format!(
-                    r#"<img alt="{}" src="data:image/png;base64,{}">"#,
-                    esc(alt),
-                    base64::engine::general_purpose::STANDARD.encode(bytes)
-                ),
-                Err(_) => format!("<em>missing image {}</em>", esc(path)),
-            }
-        };
-        let mut s = String::from(
-            r#"<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>sahara evaluation</title>
+        let mut s = String::from(HTML_HEAD);
+        for b in &self.blocks {
+            b.html(&mut s, dir);
+        }
+        s.push_str("</body></html>\n");
+        s
+    }
+}
+
+/// The HTML page up to its first block.
+const HTML_HEAD: &str = r#"<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>sahara evaluation</title>
 <style>
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:1em 0;font-size:13px}
@@ -110,50 +603,95 @@ img{max-width:100%;image-rendering:pixelated;border:1px solid #ddd}
 figcaption{font-size:12px;text-align:center}
 code{background:#f5f5f5;padding:1px 3px}
 </style></head><body>
-"#,
-        );
-        for b in &self.blocks {
-            match b {
-                Block::Heading(l, t) => {
-                    let _ = writeln!(s, "<h{l}>{}</h{l}>", esc(t));
+"#;
+
+impl Block {
+    /// Appends the block as Markdown.
+    fn markdown(&self, s: &mut String) {
+        match self {
+            Block::Heading(l, t) => {
+                let _ = writeln!(s, "{} {t}\n", "#".repeat(*l as usize));
+            }
+            Block::Para(t) => {
+                let _ = writeln!(s, "{t}\n");
+            }
+            Block::Table(head, rows) => {
+                let _ = writeln!(s, "| {} |", head.join(" | "));
+                let rule: Vec<&str> = (0..head.len())
+                    .map(|i| if i == 0 { "---" } else { "---:" })
+                    .collect();
+                let _ = writeln!(s, "|{}|", rule.join("|"));
+                for r in rows {
+                    let _ = writeln!(s, "| {} |", r.join(" | "));
                 }
-                Block::Para(t) => {
-                    let _ = writeln!(s, "<p>{}</p>", inline_md(&esc(t)));
+                s.push('\n');
+            }
+            Block::Svg { path, alt, .. } => {
+                let _ = writeln!(s, "![{alt}]({path})\n");
+            }
+            Block::Gallery(items) => {
+                for (path, cap) in items {
+                    let _ = write!(s, "![{cap}]({path}) ");
                 }
-                Block::Table(head, rows) => {
-                    s.push_str("<table><thead><tr>");
-                    for h in head {
-                        let _ = write!(s, "<th>{}</th>", esc(h));
-                    }
-                    s.push_str("</tr></thead><tbody>\n");
-                    for r in rows {
-                        s.push_str("<tr>");
-                        for c in r {
-                            let _ = write!(s, "<td>{}</td>", inline_md(&esc(c)));
-                        }
-                        s.push_str("</tr>\n");
-                    }
-                    s.push_str("</tbody></table>\n");
-                }
-                Block::Svg(_, _, svg) => {
-                    let _ = writeln!(s, "<div class=\"plot\">{svg}</div>");
-                }
-                Block::Gallery(items) => {
-                    s.push_str("<div class=\"gallery\">");
-                    for (path, cap) in items {
-                        let _ = write!(
-                            s,
-                            "<figure>{}<figcaption>{}</figcaption></figure>",
-                            img(path, cap),
-                            esc(cap)
-                        );
-                    }
-                    s.push_str("</div>\n");
-                }
+                s.push_str("\n\n");
+                let caps: Vec<&str> = items.iter().map(|(_, c)| c.as_str()).collect();
+                let _ = writeln!(s, "*{}*\n", caps.join(" · "));
             }
         }
-        s.push_str("</body></html>\n");
-        s
+    }
+
+    /// Appends the block as HTML (images read from `dir`).
+    fn html(&self, s: &mut String, dir: &Path) {
+        match self {
+            Block::Heading(l, t) => {
+                let _ = writeln!(s, "<h{l}>{}</h{l}>", esc(t));
+            }
+            Block::Para(t) => {
+                let _ = writeln!(s, "<p>{}</p>", inline_md(&esc(t)));
+            }
+            Block::Table(head, rows) => {
+                s.push_str("<table><thead><tr>");
+                for h in head {
+                    let _ = write!(s, "<th>{}</th>", esc(h));
+                }
+                s.push_str("</tr></thead><tbody>\n");
+                for r in rows {
+                    s.push_str("<tr>");
+                    for c in r {
+                        let _ = write!(s, "<td>{}</td>", inline_md(&esc(c)));
+                    }
+                    s.push_str("</tr>\n");
+                }
+                s.push_str("</tbody></table>\n");
+            }
+            Block::Svg { svg, .. } => {
+                let _ = writeln!(s, "<div class=\"plot\">{svg}</div>");
+            }
+            Block::Gallery(items) => {
+                s.push_str("<div class=\"gallery\">");
+                for (path, cap) in items {
+                    let _ = write!(
+                        s,
+                        "<figure>{}<figcaption>{}</figcaption></figure>",
+                        embedded_image(dir, path, cap),
+                        esc(cap)
+                    );
+                }
+                s.push_str("</div>\n");
+            }
+        }
+    }
+}
+
+/// The PNG at `dir/path` as an `<img>` with a data URL (a note when it cannot be read).
+fn embedded_image(dir: &Path, path: &str, alt: &str) -> String {
+    match std::fs::read(dir.join(path)) {
+        Ok(bytes) => format!(
+            r#"<img alt="{}" src="data:image/png;base64,{}">"#,
+            esc(alt),
+            base64::engine::general_purpose::STANDARD.encode(bytes)
+        ),
+        Err(_) => format!("<em>missing image {}</em>", esc(path)),
     }
 }
 
@@ -178,11 +716,12 @@ fn inline_md(t: &str) -> String {
     out
 }
 
-fn ratio(x: Option<f64>) -> String {
-    x.map_or("–".into(), |v| format!("{v:.3}"))
-}
+// ---------------------------------------------------------------------------------------
+// results.csv.
 
-fn write_csv(dir: &Path, r: &Results) -> Result<()> {
+/// One row per build and per trace: the build columns are empty in trace rows and the other
+/// way round; a missing value is an empty field.
+fn csv(r: &Results) -> String {
     let mut s = String::from(
         "kind,scene,triangles,builder,layout,rays,ray_count,threads,build_ms_median,build_ms_min,build_ms_max,sah,epo,nodes,leaves,references,max_leaf,depth,mrays_median,mrays_min,mrays_max,inner_per_ray,leaves_per_ray,triangles_per_ray,work_cost,lcv,hits,checksum,speed_vs_sweep,work_vs_sweep,speed_vs_sbvh,work_vs_sbvh\n",
     );
@@ -235,449 +774,322 @@ fn write_csv(dir: &Path, r: &Results) -> Result<()> {
             o(t.work_vs_sbvh)
         );
     }
-    std::fs::write(dir.join("results.csv"), s)?;
-    Ok(())
+    s
 }
 
-/// Geometric mean (ignores non-positive values).
-fn geomean(v: &[f64]) -> Option<f64> {
-    let v: Vec<f64> = v
-        .iter()
-        .copied()
-        .filter(|x| *x > 0.0 && x.is_finite())
-        .collect();
-    if v.is_empty() {
-        return None;
-    }
-    Some((v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
-}
+#[cfg(test)]
+mod tests {
+    //! Golden test: [`write_all`] on a small fixed [`Results`] must give, byte for byte, the
+    //! `report.md`, `report.html` and `results.csv` recorded under `xtask/tests/data/report/`.
+    //! A change to the report on purpose re-records them (`SAHARA_RECORD_REPORT=1 cargo test -p
+    //! xtask golden_report`) in the same commit, and the diff of the recorded files shows it.
 
-pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
-    std::fs::write(dir.join("results.json"), serde_json::to_string_pretty(r)?)?;
-    write_csv(dir, r)?;
-    let s = &r.meta.settings;
-    let layout0 = s.layouts.first().cloned().unwrap_or_else(|| "bvh2".into());
-    let mut d = Doc { blocks: Vec::new() };
-    d.h(1, "sahara evaluation");
-    d.p(format!(
-        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all. Cost model c_t = {}, c_i = {}. \
-         Images {}×{}; each trace is the median of {} passes after one warm-up pass (spread given as min–max); \
-         each build the median of up to {} runs (builds over 5 s on large scenes run once). Secondary-ray seed {}.{}",
-        r.meta.date,
-        r.meta.commit,
-        r.meta.cpu,
-        s.threads,
-        r.meta.simd,
-        r.meta.seconds,
-        s.cost_model.traversal,
-        s.cost_model.intersection,
-        s.width,
-        s.height,
-        s.passes,
-        s.build_runs,
-        s.seed,
-        if s.quick { " This is the **--quick** matrix." } else { "" }
-    ));
-    d.p("Speed ratios are taken within one run on the same rays: > 1 means faster than the reference tree. \
-         Work ratios compare the work per ray in SAH units (c_t · inner nodes visited + c_i · triangles tested), \
-         which machine noise cannot touch: > 1 means less work than the reference.");
+    use super::*;
+    use crate::bvh_cmd::BuildReport;
+    use crate::eval::predict::{PredictedPoint, PredictorRow};
+    use crate::eval::{file_stem, Meta, SceneInfo, Settings};
+    use crate::scaling::Series;
+    use crate::trace_cmd::TraceReport;
+    use crate::util::Spread;
+    use sahara_metrics::{CostModel, ForecastReport};
+    use sahara_trace::{Throughput, Timing, WorkPerRay};
+    use std::path::PathBuf;
 
-    if !r.skipped.is_empty() {
-        d.p(format!(
-            "Left out as impractical at this size (minutes per build on two cores): {}.",
-            r.skipped.join("; ")
-        ));
-    }
+    const BUILDERS: [&str; 4] = ["sweep", "sbvh", "binned", "tsah-sbvh"];
+    const KINDS: [&str; 2] = ["primary", "ao"];
+    const LAYOUTS: [&str; 2] = ["bvh2", "bvh4"];
 
-    // Main table: relative trace performance against sweep, per ray type, first layout.
-    let builders: Vec<&String> = s.builders.iter().collect();
-    let kinds: Vec<String> = {
-        let mut k: Vec<String> = Vec::new();
-        for t in &r.traces {
-            if !k.contains(&t.report.ray_kind) {
-                k.push(t.report.ray_kind.clone());
-            }
+    fn timed(median: f64) -> Spread {
+        Spread {
+            median,
+            min: 0.9 * median,
+            max: 1.25 * median,
         }
-        k
-    };
-    d.h(
-        2,
-        format!("Trace performance relative to full-sweep SAH ({layout0})"),
-    );
-    for kind in &kinds {
-        d.h(3, format!("{kind} rays: speed (work) relative to sweep"));
-        let mut rows = Vec::new();
-        let mut per_builder: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
-        for sc in &r.scenes {
-            let mut row = vec![sc.name.clone()];
-            for b in &builders {
-                let t = find(&r.traces, &sc.name, b, &layout0, kind);
-                row.push(match t {
-                    Some(t) => {
-                        let e = per_builder.entry(b.as_str()).or_default();
-                        e.0.extend(t.speed_vs_sweep);
-                        e.1.extend(t.work_vs_sweep);
-                        format!("{} ({})", ratio(t.speed_vs_sweep), ratio(t.work_vs_sweep))
-                    }
-                    None => "–".into(),
+    }
+
+    /// Two scenes (one with characters that need escaping), four builders (two spatial), two
+    /// ray types and two layouts; with holes where the report prints "–": a builder without
+    /// traces, a scene without a sweep trace, predictors without scores, a scaling series
+    /// without a point, and one heat map whose image is missing.
+    fn results() -> Results {
+        let settings = Settings {
+            quick: true,
+            scenes: vec!["cube".into(), "a<b> & c".into()],
+            builders: BUILDERS.map(String::from).to_vec(),
+            rays: KINDS.map(String::from).to_vec(),
+            layouts: LAYOUTS.map(String::from).to_vec(),
+            width: 32,
+            height: 24,
+            passes: 3,
+            build_runs: 3,
+            threads: 2,
+            seed: 1,
+            cost_model: CostModel::default(),
+        };
+        let scenes: Vec<SceneInfo> = [("cube", 12usize), ("a<b> & c", 3000)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(name, triangles))| SceneInfo {
+                name: name.into(),
+                triangles,
+                render: (i == 0).then(|| "images/cube-render.png".to_string()),
+                heat_maps: BUILDERS
+                    .iter()
+                    .take(2)
+                    .map(|b| {
+                        (
+                            b.to_string(),
+                            format!("images/{}-{b}-heat.png", file_stem(name)),
+                        )
+                    })
+                    .collect(),
+                heat_scale: 40.0 + 7.5 * i as f64,
+            })
+            .collect();
+        let mut builds = Vec::new();
+        let mut traces: Vec<TraceRow> = Vec::new();
+        for (si, sc) in scenes.iter().enumerate() {
+            for (bi, b) in BUILDERS.iter().enumerate() {
+                let f = 1.0 + 0.125 * bi as f64 + 0.5 * si as f64;
+                builds.push(BuildReport {
+                    scene: sc.name.clone(),
+                    triangles: sc.triangles,
+                    builder: b.to_string(),
+                    config: String::new(),
+                    threads: 2,
+                    build_ms: timed(0.75 * f * f * (1 + 99 * si) as f64),
+                    sah: 10.0 / f,
+                    epo: (bi != 2).then_some(2.5 / f),
+                    nodes: 2 * sc.triangles / (bi + 1) - 1,
+                    leaves: sc.triangles / (bi + 1),
+                    references: sc.triangles + bi * si * 17,
+                    max_leaf: 4 + bi,
+                    depth: 6 + bi + 3 * si,
                 });
-            }
-            rows.push(row);
-        }
-        let mut gm = vec!["**geometric mean**".to_string()];
-        for b in &builders {
-            let (sp, wk) = per_builder.get(b.as_str()).cloned().unwrap_or_default();
-            gm.push(format!("{} ({})", ratio(geomean(&sp)), ratio(geomean(&wk))));
-        }
-        rows.push(gm);
-        let mut head = vec!["scene"];
-        head.extend(builders.iter().map(|b| b.as_str()));
-        d.table(&head, rows);
-    }
-
-    // Spatial-split builders against SBVH.
-    let spatial: Vec<&String> = builders
-        .iter()
-        .copied()
-        .filter(|b| {
-            sahara_builders::registry::entries()
-                .iter()
-                .any(|e| e.name == b.as_str() && e.spatial)
-        })
-        .collect();
-    if spatial.len() > 1 {
-        d.h(
-            2,
-            format!("Spatial-split builders relative to SBVH ({layout0})"),
-        );
-        let mut rows = Vec::new();
-        for sc in &r.scenes {
-            for kind in &kinds {
-                let mut row = vec![format!("{} / {kind}", sc.name)];
-                for b in &spatial {
-                    row.push(match find(&r.traces, &sc.name, b, &layout0, kind) {
-                        Some(t) => {
-                            format!("{} ({})", ratio(t.speed_vs_sbvh), ratio(t.work_vs_sbvh))
+                if *b == "binned" && si == 1 {
+                    continue; // a builder without traces on this scene
+                }
+                for (li, layout) in LAYOUTS.iter().enumerate() {
+                    for (ki, kind) in KINDS.iter().enumerate() {
+                        if *b == "sweep" && si == 1 && ki == 1 {
+                            continue; // no reference: the ratios are None
                         }
-                        None => "–".into(),
+                        let g = f * (1.0 + 0.25 * li as f64) * (1.0 + 0.5 * ki as f64);
+                        let m = 12.0 / g;
+                        let rep = TraceReport {
+                            scene: sc.name.clone(),
+                            triangles: sc.triangles,
+                            builder: b.to_string(),
+                            layout: layout.to_string(),
+                            ray_kind: kind.to_string(),
+                            rays: 768,
+                            threads: 2,
+                            mrays_s: Throughput {
+                                median: m,
+                                min: 0.8 * m,
+                                max: 1.1 * m,
+                            },
+                            trace_ms: Timing {
+                                median: 0.064 * g,
+                                min: 0.058 * g,
+                                max: 0.08 * g,
+                                passes: 3,
+                            },
+                            work: WorkPerRay {
+                                inner: 8.0 * g,
+                                leaves: 2.0 * g,
+                                triangles: 5.0 * g,
+                            },
+                            inner_per_ray: 8.0 * g,
+                            leaves_per_ray: 2.0 * g,
+                            triangles_per_ray: 5.0 * g,
+                            lcv: 1.5 * g,
+                            hits: 700 - 100 * ki,
+                            checksum: format!("{:016x}", 0x5eed + 31 * traces.len()),
+                        };
+                        traces.push(TraceRow {
+                            work_cost: 8.0 * g + 5.0 * g * (1.0 + 0.0625 * bi as f64),
+                            report: rep,
+                            speed_vs_sweep: None,
+                            work_vs_sweep: None,
+                            speed_vs_sbvh: None,
+                            work_vs_sbvh: None,
+                        });
+                    }
+                }
+            }
+        }
+        let split = traces
+            .iter()
+            .position(|t| t.report.scene != scenes[0].name)
+            .unwrap();
+        let (a, b) = traces.split_at_mut(split);
+        super::super::relate(a);
+        super::super::relate(b);
+        let forecast = |e: f64, rho: Option<f64>| ForecastReport {
+            alpha: 0.5,
+            samples: 6,
+            mean_relative_error: e,
+            max_relative_error: 2.5 * e,
+            spearman: rho,
+            mean_scene_spearman: rho.map(|r| r - 0.1),
+        };
+        let predictors = vec![
+            PredictorRow {
+                ray_kind: "primary".into(),
+                predictor: "SAH-EPO".into(),
+                target: "time".into(),
+                alpha: Some(0.4375),
+                report: Some(forecast(0.0625, Some(0.875))),
+                note: "fitted".into(),
+            },
+            PredictorRow {
+                ray_kind: "ao".into(),
+                predictor: "SAH".into(),
+                target: "work".into(),
+                alpha: None,
+                report: Some(forecast(0.125, None)),
+                note: "`alpha` fixed at **0**".into(),
+            },
+            PredictorRow {
+                ray_kind: "ao".into(),
+                predictor: "ray-weighted".into(),
+                target: "time".into(),
+                alpha: None,
+                report: None,
+                note: "no samples <here>".into(),
+            },
+        ];
+        let mut predicted_points = Vec::new();
+        for (ki, kind) in KINDS.iter().enumerate() {
+            for (bi, b) in BUILDERS.iter().enumerate().skip(1) {
+                for p in ["SAH", "SAH-EPO"] {
+                    let x = 1.0 + 0.125 * bi as f64 + 0.0625 * ki as f64;
+                    predicted_points.push(PredictedPoint {
+                        ray_kind: kind.to_string(),
+                        predictor: p.into(),
+                        scene: "cube".into(),
+                        builder: b.to_string(),
+                        predicted: x,
+                        measured: if p == "SAH" {
+                            1.5 * x - 0.5
+                        } else {
+                            x + 0.03125
+                        },
                     });
                 }
-                rows.push(row);
             }
         }
-        let mut head = vec!["scene / rays"];
-        head.extend(spatial.iter().map(|b| b.as_str()));
-        d.table(&head, rows);
+        let scaling = vec![
+            Series {
+                builder: "sweep".into(),
+                points: vec![(1000, timed(0.002)), (4000, timed(0.009))],
+                exponent: Some(1.085),
+                exponent_large: None,
+            },
+            Series {
+                builder: "binned".into(),
+                points: vec![(1000, timed(0.0005))],
+                exponent: None,
+                exponent_large: None,
+            },
+        ];
+        Results {
+            meta: Meta {
+                date: "2024-01-02T03-04-05".into(),
+                commit: "0123abc".into(),
+                cpu: "Test CPU <2 cores>".into(),
+                simd: "sse2".into(),
+                settings,
+                seconds: 61.5,
+            },
+            scenes,
+            skipped: vec![
+                "tsah-exhaustive on cube (12 triangles; name it with --builders to run it)".into(),
+            ],
+            builds,
+            traces,
+            predictors,
+            predicted_points,
+            scaling,
+        }
     }
 
-    // Tree quality and build time per scene.
-    d.h(2, "Trees: build time, SAH and EPO");
-    for sc in &r.scenes {
-        d.h(3, format!("{} ({} triangles)", sc.name, sc.triangles));
-        let mut rows = Vec::new();
-        for b in r.builds.iter().filter(|b| b.scene == sc.name) {
-            rows.push(vec![
-                b.builder.clone(),
-                format!(
-                    "{} [{}–{}]",
-                    fmt_num(b.build_ms.median),
-                    fmt_num(b.build_ms.min),
-                    fmt_num(b.build_ms.max)
-                ),
-                format!("{:.3}", b.sah),
-                b.epo.map_or("–".into(), |e| format!("{e:.3}")),
-                b.nodes.to_string(),
-                b.references.to_string(),
-                b.max_leaf.to_string(),
-                b.depth.to_string(),
-            ]);
-        }
-        d.table(
-            &[
-                "builder",
-                "build ms median [min–max]",
-                "SAH",
-                "EPO",
-                "nodes",
-                "references",
-                "max leaf",
-                "depth",
-            ],
-            rows,
-        );
-        let mut rows = Vec::new();
-        for t in r.traces.iter().filter(|t| t.report.scene == sc.name) {
-            let x = &t.report;
-            rows.push(vec![
-                format!("{} / {} / {}", x.builder, x.layout, x.ray_kind),
-                format!(
-                    "{:.2} [{:.2}–{:.2}]",
-                    x.mrays_s.median, x.mrays_s.min, x.mrays_s.max
-                ),
-                ratio(t.speed_vs_sweep),
-                format!("{:.2}", x.inner_per_ray),
-                format!("{:.2}", x.leaves_per_ray),
-                format!("{:.2}", x.triangles_per_ray),
-                ratio(t.work_vs_sweep),
-                format!("{:.2}", x.lcv),
-                x.hits.to_string(),
-            ]);
-        }
-        d.table(
-            &[
-                "builder / layout / rays",
-                "Mrays/s median [min–max]",
-                "speed vs sweep",
-                "inner/ray",
-                "leaves/ray",
-                "tris/ray",
-                "work vs sweep",
-                "LCV",
-                "hits",
-            ],
-            rows,
-        );
+    fn golden_dir() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/report")
     }
 
-    // Speed against error: build time vs trace cost.
-    d.h(2, "Build time against trace cost (speed against error)");
-    d.p("Each point is a builder: x = build time relative to sweep (geometric mean over scenes), \
-         y = trace time relative to sweep (geometric mean over scenes and ray types, first layout). \
-         The dashed line joins the Pareto front: no other builder is both faster to build and faster to trace.");
-    let mut pts = Vec::new();
-    for b in &builders {
-        let mut bt = Vec::new();
-        let mut tt = Vec::new();
-        for sc in &r.scenes {
-            let this = r
-                .builds
-                .iter()
-                .find(|x| x.scene == sc.name && &x.builder == *b);
-            let refb = r
-                .builds
-                .iter()
-                .find(|x| x.scene == sc.name && x.builder == REFERENCE);
-            if let (Some(t), Some(rf)) = (this, refb) {
-                if rf.build_ms.median > 0.0 {
-                    bt.push(t.build_ms.median / rf.build_ms.median);
-                }
-            }
-            for t in r.traces.iter().filter(|t| {
-                t.report.scene == sc.name && &t.report.builder == *b && t.report.layout == layout0
-            }) {
-                if let Some(sp) = t.speed_vs_sweep {
-                    tt.push(1.0 / sp);
+    /// The line number and both lines at the first difference (`None`: equal).
+    fn first_difference(want: &str, got: &str) -> Option<(usize, String, String)> {
+        if want == got {
+            return None;
+        }
+        let (mut w, mut g) = (want.split('\n'), got.split('\n'));
+        for n in 1.. {
+            match (w.next(), g.next()) {
+                (Some(a), Some(b)) if a == b => continue,
+                (a, b) => {
+                    let show = |l: Option<&str>| {
+                        l.map_or("<end of file>".to_string(), |l| {
+                            l.chars().take(400).collect()
+                        })
+                    };
+                    return Some((n, show(a), show(b)));
                 }
             }
         }
-        if let (Some(x), Some(y)) = (geomean(&bt), geomean(&tt)) {
-            pts.push(Point {
-                x,
-                y,
-                label: b.to_string(),
-                series: b.to_string(),
-            });
-        }
+        unreachable!()
     }
-    let plot = Plot {
-        title: "Build time against trace time (relative to sweep)".into(),
-        x_label: "build time / sweep".into(),
-        y_label: "trace time / sweep".into(),
-        log_x: true,
-        pareto: true,
-        labels: true,
-        points: pts,
-        ..Default::default()
-    };
-    add_svg(
-        &mut d,
-        dir,
-        "plots/speed-vs-error.svg",
-        "speed against error",
-        plot.svg(),
-    )?;
 
-    // Predictors.
-    if !r.predictors.is_empty() {
-        d.h(2, "Trace-cost predictors");
-        d.p("Per ray type, each predictor forecasts the trace cost of every tree normalised to the sweep tree of its scene. \
-             α is fitted by least squares on relative errors over all builders and scenes of this run (clamped to [0, 1]). \
-             Errors are over the non-reference trees; ρ is Spearman's rank correlation (pooled, and the mean of the per-scene values).");
-        let mut rows = Vec::new();
-        for p in &r.predictors {
-            rows.push(vec![
-                p.ray_kind.clone(),
-                p.predictor.clone(),
-                p.target.clone(),
-                p.alpha.map_or("–".into(), |a| format!("{a:.3}")),
-                p.report.as_ref().map_or("–".into(), |x| {
-                    format!("{:.1}%", 100.0 * x.mean_relative_error)
-                }),
-                p.report.as_ref().map_or("–".into(), |x| {
-                    format!("{:.1}%", 100.0 * x.max_relative_error)
-                }),
-                p.report
-                    .as_ref()
-                    .and_then(|x| x.spearman)
-                    .map_or("–".into(), |v| format!("{v:.3}")),
-                p.report
-                    .as_ref()
-                    .and_then(|x| x.mean_scene_spearman)
-                    .map_or("–".into(), |v| format!("{v:.3}")),
-                p.note.clone(),
-            ]);
+    #[test]
+    fn golden_report() {
+        let dir = std::env::temp_dir().join(format!("sahara-golden-report-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("plots")).unwrap();
+        std::fs::create_dir_all(dir.join("images")).unwrap();
+        // Stand-ins for PNGs (the HTML embeds the bytes as they are); the second heat map of
+        // the second scene stays missing.
+        std::fs::write(dir.join("images/cube-render.png"), b"render").unwrap();
+        std::fs::write(dir.join("images/cube-sweep-heat.png"), b"heat\x00sweep").unwrap();
+        std::fs::write(dir.join("images/cube-sbvh-heat.png"), b"heat\xffsbvh").unwrap();
+        std::fs::write(dir.join("images/a_b____c-sweep-heat.png"), b"h").unwrap();
+        write_all(&dir, &results()).unwrap();
+        let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+        for plot in [
+            "speed-vs-error",
+            "predicted-primary",
+            "predicted-ao",
+            "scaling",
+        ] {
+            let svg = std::fs::read_to_string(dir.join(format!("plots/{plot}.svg")))
+                .unwrap_or_else(|e| panic!("plots/{plot}.svg: {e}"));
+            assert!(
+                html.contains(&svg),
+                "plots/{plot}.svg is not the plot in the HTML"
+            );
         }
-        d.table(
-            &[
-                "rays",
-                "predictor",
-                "measured",
-                "α",
-                "mean error",
-                "max error",
-                "ρ pooled",
-                "ρ per scene",
-                "note",
-            ],
-            rows,
+        let record = std::env::var_os("SAHARA_RECORD_REPORT").is_some_and(|v| v != "0");
+        let golden = golden_dir();
+        let mut failures = Vec::new();
+        for file in ["report.md", "report.html", "results.csv"] {
+            let got = std::fs::read_to_string(dir.join(file)).unwrap();
+            if record {
+                std::fs::create_dir_all(&golden).unwrap();
+                std::fs::write(golden.join(file), &got).unwrap();
+                continue;
+            }
+            let want = std::fs::read_to_string(golden.join(file)).unwrap_or_default();
+            if let Some((line, w, g)) = first_difference(&want, &got) {
+                failures.push(format!(
+                    "{file} differs from tests/data/report/{file} at line {line}:\n  want: {w}\n  got:  {g}"
+                ));
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(
+            failures.is_empty(),
+            "{}\n(re-record with SAHARA_RECORD_REPORT=1 if the change is meant)",
+            failures.join("\n")
         );
-        let mut by_kind: BTreeMap<&str, Vec<Point>> = BTreeMap::new();
-        for p in &r.predicted_points {
-            by_kind.entry(p.ray_kind.as_str()).or_default().push(Point {
-                x: p.predicted,
-                y: p.measured,
-                label: format!("{} {}", p.scene, p.builder),
-                series: p.predictor.clone(),
-            });
-        }
-        for (kind, points) in by_kind {
-            let plot = Plot {
-                title: format!("{kind} rays: predicted against measured time (relative to sweep)"),
-                x_label: "predicted".into(),
-                y_label: "measured".into(),
-                diagonal: true,
-                points,
-                ..Default::default()
-            };
-            add_svg(
-                &mut d,
-                dir,
-                &format!("plots/predicted-{kind}.svg"),
-                &format!("predicted against measured, {kind}"),
-                plot.svg(),
-            )?;
-        }
     }
-
-    // Scaling.
-    if !r.scaling.is_empty() {
-        d.h(2, "Build time against N (complexity)");
-        d.p("Procedural triangle soups of growing size; the exponent b of time ≈ a·N^b is fitted by least squares on log–log \
-             (over all sizes, and over N ≥ 10^4). N log N shows as b slightly above 1, N log² N a little higher, N² as 2.");
-        let sizes: Vec<usize> = r
-            .scaling
-            .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.0))
-            .fold(Vec::new(), |mut v, n| {
-                if !v.contains(&n) {
-                    v.push(n);
-                }
-                v
-            });
-        let mut head: Vec<String> = vec!["builder".into()];
-        head.extend(sizes.iter().map(|n| format!("N={n} (ms)")));
-        head.push("b (all)".into());
-        head.push("b (N≥1e4)".into());
-        let mut rows = Vec::new();
-        let mut pts = Vec::new();
-        for sr in &r.scaling {
-            let mut row = vec![sr.builder.clone()];
-            for n in &sizes {
-                row.push(
-                    sr.points
-                        .iter()
-                        .find(|p| p.0 == *n)
-                        .map_or("–".into(), |p| fmt_num(p.1.median * 1e3)),
-                );
-            }
-            row.push(sr.exponent.map_or("–".into(), |e| format!("{e:.2}")));
-            row.push(sr.exponent_large.map_or("–".into(), |e| format!("{e:.2}")));
-            rows.push(row);
-            for p in &sr.points {
-                pts.push(Point {
-                    x: p.0 as f64,
-                    y: p.1.median * 1e3,
-                    label: sr.builder.clone(),
-                    series: sr.builder.clone(),
-                });
-            }
-        }
-        let head_refs: Vec<&str> = head.iter().map(|s| s.as_str()).collect();
-        d.table(&head_refs, rows);
-        let plot = Plot {
-            title: "Build time against N".into(),
-            x_label: "triangles".into(),
-            y_label: "build ms".into(),
-            log_x: true,
-            log_y: true,
-            lines: true,
-            points: pts,
-            ..Default::default()
-        };
-        add_svg(
-            &mut d,
-            dir,
-            "plots/scaling.svg",
-            "build time against N",
-            plot.svg(),
-        )?;
-    }
-
-    // Images.
-    d.h(2, "Renders and work heat maps (primary rays)");
-    d.p(format!(
-        "Heat maps show inner nodes + leaves + triangles visited per pixel (bvh2 layout). All heat maps of a scene share one colour scale (viridis, dark = little work), topping out at the largest of the trees' {:.0}th percentiles of per-pixel work, so the same colour means the same work in every image of the scene.",
-        super::HEAT_PERCENTILE
-    ));
-    for sc in &r.scenes {
-        d.h(3, sc.name.clone());
-        d.p(format!(
-            "Top of the colour scale: {:.0} work units per pixel.",
-            sc.heat_scale
-        ));
-        let mut items = Vec::new();
-        if let Some(p) = &sc.render {
-            items.push((p.clone(), format!("{} render", sc.name)));
-        }
-        for (b, p) in &sc.heat_maps {
-            items.push((p.clone(), format!("{b} heat map")));
-        }
-        d.blocks.push(Block::Gallery(items));
-    }
-    let _ = SPATIAL_REFERENCE;
-
-    std::fs::write(dir.join("report.md"), d.markdown())?;
-    std::fs::write(dir.join("report.html"), d.html(dir))?;
-    Ok(())
-}
-
-fn add_svg(d: &mut Doc, dir: &Path, path: &str, alt: &str, svg: String) -> Result<()> {
-    std::fs::write(dir.join(path), &svg)?;
-    d.blocks.push(Block::Svg(path.into(), alt.into(), svg));
-    Ok(())
-}
-
-fn find<'a>(
-    traces: &'a [TraceRow],
-    scene: &str,
-    builder: &str,
-    layout: &str,
-    kind: &str,
-) -> Option<&'a TraceRow> {
-    traces.iter().find(|t| {
-        t.report.scene == scene
-            && t.report.builder == builder
-            && t.report.layout == layout
-            && t.report.ray_kind == kind
-    })
 }
