@@ -344,7 +344,55 @@ fn stitch(frags: Vec<Fragment>, spatial_splits: bool) -> Bvh {
 /// would build over `task`, and the half area of its root, computed bottom-up on the current
 /// thread without storing a node. A leaf of `n` references costs `n c_i`, an inner node
 /// combines its children by their areas (`CostModel::inner_cost`).
+///
+/// Temporary subtrees are costed by the million, most of them small: the first
+/// [`COST_RECURSION`] levels recurse on the call stack (no allocation), deeper subtrees
+/// continue on an explicit stack, so no input can overflow the thread's stack.
 pub fn cost<H: TopDown>(
+    hook: &H,
+    task: H::Task,
+    cost: &CostModel,
+    scratch: &mut H::Scratch,
+) -> SubtreeCost {
+    cost_rec(hook, task, cost, scratch, 0)
+}
+
+/// Levels of [`cost`] that recurse on the call stack.
+pub const COST_RECURSION: usize = 48;
+
+fn cost_rec<H: TopDown>(
+    hook: &H,
+    task: H::Task,
+    cost: &CostModel,
+    scratch: &mut H::Scratch,
+    depth: usize,
+) -> SubtreeCost {
+    if depth >= COST_RECURSION {
+        return cost_iterative(hook, task, cost, scratch);
+    }
+    match hook.split(task, scratch) {
+        Step::Leaf { bounds, task } => SubtreeCost {
+            cost: cost.leaf_cost(hook.size(&task)),
+            area: half_area(&bounds),
+        },
+        Step::Split {
+            bounds,
+            left,
+            right,
+        } => {
+            let l = cost_rec(hook, left, cost, scratch, depth + 1);
+            let r = cost_rec(hook, right, cost, scratch, depth + 1);
+            let area = half_area(&bounds);
+            SubtreeCost {
+                cost: cost.inner_cost(area, l.area, l.cost, r.area, r.cost),
+                area,
+            }
+        }
+    }
+}
+
+/// [`cost`] on an explicit stack.
+fn cost_iterative<H: TopDown>(
     hook: &H,
     task: H::Task,
     cost: &CostModel,
@@ -384,4 +432,73 @@ pub fn cost<H: TopDown>(
         }
     }
     values.pop().expect("root cost")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::Vec3A;
+
+    /// Peels one unit box off the end of a row per level: a chain as deep as the row is long.
+    struct Peel;
+
+    impl TopDown for Peel {
+        type Task = (u32, u32);
+        type Scratch = ();
+
+        fn size(&self, t: &(u32, u32)) -> usize {
+            (t.1 - t.0) as usize
+        }
+
+        fn split(&self, t: (u32, u32), _: &mut ()) -> Step<(u32, u32)> {
+            let bounds = Aabb::new(
+                Vec3A::new(t.0 as f32, 0.0, 0.0),
+                Vec3A::new(t.1 as f32, 1.0, 1.0),
+            );
+            if t.1 - t.0 == 1 {
+                Step::Leaf { bounds, task: t }
+            } else {
+                Step::Split {
+                    bounds,
+                    left: (t.0, t.1 - 1),
+                    right: (t.1 - 1, t.1),
+                }
+            }
+        }
+
+        fn leaf_refs(&self, t: &(u32, u32), out: &mut Vec<u32>) {
+            out.extend(t.0..t.1);
+        }
+
+        fn parallel_threshold(&self) -> usize {
+            16
+        }
+    }
+
+    #[test]
+    fn deep_chains_cost_the_same_recursively_and_iteratively() {
+        let c = CostModel::default();
+        for n in [1, 2, COST_RECURSION as u32, 5_000] {
+            let a = cost(&Peel, (0, n), &c, &mut ());
+            let b = cost_iterative(&Peel, (0, n), &c, &mut ());
+            assert_eq!(a, b, "{n}");
+        }
+    }
+
+    #[test]
+    fn parallel_and_serial_builds_are_identical() {
+        // A chain deep enough to spawn at many levels and to stitch many fragments.
+        let n = 3_000;
+        let bvh = build(&Peel, (0, n), false);
+        bvh.validate_structure().unwrap();
+        let mut f = Fragment::default();
+        serial(&Peel, (0, n), &mut f, &mut ());
+        assert_eq!(bvh.nodes, f.nodes);
+        assert_eq!(bvh.prim_indices, f.prims);
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        assert_eq!(one.install(|| build(&Peel, (0, n), false)), bvh);
+    }
 }
