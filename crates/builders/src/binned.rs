@@ -268,9 +268,9 @@ impl Rated {
     fn better_than(&self, o: &Rated) -> bool {
         ranks_before(
             self.score,
-            (self.imbalance, self.axis, self.plane),
+            || (self.imbalance, self.axis, self.plane),
             o.score,
-            (o.imbalance, o.axis, o.plane),
+            || (o.imbalance, o.axis, o.plane),
         )
     }
 }

@@ -125,13 +125,14 @@ pub fn imbalance(n_left: usize, n_right: usize) -> usize {
 }
 
 /// The order every split search uses: `a` (value, then `(imbalance, axis, position)`) ranks
-/// strictly before `b`. Values compare by `f64::total_cmp`.
+/// strictly before `b`. Values compare by `f64::total_cmp`; the tie-breaks are only computed
+/// on an exact tie of the values.
 #[inline]
 pub fn ranks_before(
     a: f64,
-    a_tie: (usize, usize, usize),
+    a_tie: impl FnOnce() -> (usize, usize, usize),
     b: f64,
-    b_tie: (usize, usize, usize),
+    b_tie: impl FnOnce() -> (usize, usize, usize),
 ) -> bool {
     // Fast paths, equivalent to `total_cmp` for these operands (it differs from `<` only on
     // NaN and on -0.0 == +0.0, which fall through).
@@ -144,7 +145,7 @@ pub fn ranks_before(
     match a.total_cmp(&b) {
         std::cmp::Ordering::Less => true,
         std::cmp::Ordering::Greater => false,
-        std::cmp::Ordering::Equal => a_tie < b_tie,
+        std::cmp::Ordering::Equal => a_tie() < b_tie(),
     }
 }
 
@@ -299,10 +300,11 @@ mod tests {
 
     #[test]
     fn ties_go_to_balance_then_axis_then_position() {
-        assert!(ranks_before(1.0, (5, 2, 9), 2.0, (0, 0, 0)));
-        assert!(ranks_before(1.0, (0, 2, 9), 1.0, (1, 0, 0)));
-        assert!(ranks_before(1.0, (1, 0, 9), 1.0, (1, 1, 0)));
-        assert!(!ranks_before(1.0, (1, 1, 3), 1.0, (1, 1, 3)));
+        let r = |a, at, b, bt| ranks_before(a, || at, b, || bt);
+        assert!(r(1.0, (5, 2, 9), 2.0, (0, 0, 0)));
+        assert!(r(1.0, (0, 2, 9), 1.0, (1, 0, 0)));
+        assert!(r(1.0, (1, 0, 9), 1.0, (1, 1, 0)));
+        assert!(!r(1.0, (1, 1, 3), 1.0, (1, 1, 3)));
     }
 
     #[test]

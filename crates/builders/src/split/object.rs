@@ -106,9 +106,9 @@ impl ObjectCand {
         let (b, q) = other.key();
         ranks_before(
             self.score,
-            (imbalance(self.n_left, self.n_right), a, p),
+            || (imbalance(self.n_left, self.n_right), a, p),
             other.score,
-            (imbalance(other.n_left, other.n_right), b, q),
+            || (imbalance(other.n_left, other.n_right), b, q),
         )
     }
 

@@ -155,9 +155,9 @@ impl SpatialCand {
     pub fn better(&self, other: &SpatialCand) -> bool {
         ranks_before(
             self.score,
-            (0, self.axis, self.plane),
+            || (0, self.axis, self.plane),
             other.score,
-            (0, other.axis, other.plane),
+            || (0, other.axis, other.plane),
         )
     }
 }
@@ -606,9 +606,9 @@ impl Rough {
     fn better(&self, other: &Rough) -> bool {
         ranks_before(
             self.score,
-            (0, self.axis, self.plane),
+            || (0, self.axis, self.plane),
             other.score,
-            (0, other.axis, other.plane),
+            || (0, other.axis, other.plane),
         )
     }
 }

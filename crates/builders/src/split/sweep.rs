@@ -37,9 +37,9 @@ impl SplitCandidate {
     pub fn better_than(&self, other: &SplitCandidate, n: usize) -> bool {
         ranks_before(
             self.cost,
-            (imbalance(self.pos, n - self.pos), self.axis, self.pos),
+            || (imbalance(self.pos, n - self.pos), self.axis, self.pos),
             other.cost,
-            (imbalance(other.pos, n - other.pos), other.axis, other.pos),
+            || (imbalance(other.pos, n - other.pos), other.axis, other.pos),
         )
     }
 
@@ -123,6 +123,7 @@ pub fn prefix_pass<'b, S: Suffix>(
     suffix: &[S],
     mut visit: impl FnMut(usize, &Aabb, &S),
 ) {
+    let suffix = &suffix[..n];
     let mut left = Aabb::EMPTY;
     for j in 1..n {
         left.grow_aabb(item(j - 1));
@@ -146,13 +147,23 @@ pub fn sweep_axis<F: FnMut(SplitCandidate)>(
     let item = |j: usize| &bounds[order[j] as usize];
     let node = suffix_pass(n, item, areas);
     let parent_area = node.half_area() as f64;
+    // Counts in floating point (exact): see `CostModel::split_cost_counts`.
+    let total = n as f64;
+    let mut n_left = 0.0;
     prefix_pass(n, item, areas, |j, left, right: &f32| {
+        n_left += 1.0;
         let left_area = left.half_area() as f64;
         let right_area = right.area();
         visit(SplitCandidate {
             axis,
             pos: j,
-            cost: cost.split_cost(parent_area, left_area, j, right_area, n - j),
+            cost: cost.split_cost_counts(
+                parent_area,
+                left_area,
+                n_left,
+                right_area,
+                total - n_left,
+            ),
             left_area,
             right_area,
         });

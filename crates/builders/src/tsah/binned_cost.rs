@@ -57,9 +57,9 @@ impl Best {
     fn better_than(&self, o: &Best) -> bool {
         ranks_before(
             self.cost,
-            (self.imbalance, self.axis, self.plane),
+            || (self.imbalance, self.axis, self.plane),
             o.cost,
-            (o.imbalance, o.axis, o.plane),
+            || (o.imbalance, o.axis, o.plane),
         )
     }
 }
