@@ -371,10 +371,7 @@ fn cost_rec<H: TopDown>(
         return cost_iterative(hook, task, cost, scratch);
     }
     match hook.split(task, scratch) {
-        Step::Leaf { bounds, task } => SubtreeCost {
-            cost: cost.leaf_cost(hook.size(&task)),
-            area: half_area(&bounds),
-        },
+        Step::Leaf { bounds, task } => leaf_value(hook, &bounds, &task, cost),
         Step::Split {
             bounds,
             left,
@@ -382,12 +379,31 @@ fn cost_rec<H: TopDown>(
         } => {
             let l = cost_rec(hook, left, cost, scratch, depth + 1);
             let r = cost_rec(hook, right, cost, scratch, depth + 1);
-            let area = half_area(&bounds);
-            SubtreeCost {
-                cost: cost.inner_cost(area, l.area, l.cost, r.area, r.cost),
-                area,
-            }
+            inner_value(cost, half_area(&bounds), &l, &r)
         }
+    }
+}
+
+/// The cost of a leaf: `n c_i`.
+#[inline]
+fn leaf_value<H: TopDown>(
+    hook: &H,
+    bounds: &Aabb,
+    task: &H::Task,
+    cost: &CostModel,
+) -> SubtreeCost {
+    SubtreeCost {
+        cost: cost.leaf_cost(hook.size(task)),
+        area: half_area(bounds),
+    }
+}
+
+/// The cost of an inner node of half area `area` over its children's.
+#[inline]
+fn inner_value(cost: &CostModel, area: f64, l: &SubtreeCost, r: &SubtreeCost) -> SubtreeCost {
+    SubtreeCost {
+        cost: cost.inner_cost(area, l.area, l.cost, r.area, r.cost),
+        area,
     }
 }
 
@@ -407,10 +423,7 @@ fn cost_iterative<H: TopDown>(
     while let Some(item) = stack.pop() {
         match item {
             Item::Visit(task) => match hook.split(task, scratch) {
-                Step::Leaf { bounds, task } => values.push(SubtreeCost {
-                    cost: cost.leaf_cost(hook.size(&task)),
-                    area: half_area(&bounds),
-                }),
+                Step::Leaf { bounds, task } => values.push(leaf_value(hook, &bounds, &task, cost)),
                 Step::Split {
                     bounds,
                     left,
@@ -424,10 +437,7 @@ fn cost_iterative<H: TopDown>(
             Item::Combine(area) => {
                 let r = values.pop().expect("right cost");
                 let l = values.pop().expect("left cost");
-                values.push(SubtreeCost {
-                    cost: cost.inner_cost(area, l.area, l.cost, r.area, r.cost),
-                    area,
-                });
+                values.push(inner_value(cost, area, &l, &r));
             }
         }
     }
