@@ -2,53 +2,26 @@
 
 use sahara_builders::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
 use sahara_builders::{registry, BuildInput, Builder, Bvh};
-use sahara_geom::rng::Pcg32;
+use sahara_fixtures::soups::{self, clustered_centroid, sized_soup};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
 mod spatial_support;
-use spatial_support::clustered;
+use spatial_support::{bits, max_leaf};
 
 /// Random triangles of random sizes (up to 5) in a 100³ box.
 fn soup(n: usize, seed: u64) -> Vec<Triangle> {
-    spatial_support::soup(n, seed, 5.0)
+    sized_soup(n, seed, 5.0)
 }
 
+/// The soup followed by 200 rounds of zero-area (collinear), index-degenerate (repeated
+/// vertex) and point triangles, and 50 exact duplicates.
 fn degenerate_mix() -> Vec<Triangle> {
-    let mut tris = soup(300, 11);
-    let p = Vec3A::new(3.0, 4.0, 5.0);
-    // Zero-area (collinear), index-degenerate (repeated vertex), point triangles.
-    for i in 0..200 {
-        let o = Vec3A::splat(i as f32 * 0.1);
-        tris.push(Triangle::new(o, o + Vec3A::X, o + Vec3A::X * 2.0));
-        tris.push(Triangle::new(o, o, o + Vec3A::Y));
-        tris.push(Triangle::new(p, p, p));
-    }
-    // Exact duplicates.
-    let dup = tris[5];
-    tris.extend(std::iter::repeat_n(dup, 50));
-    tris
+    soups::degenerate_mix(soup(300, 11), 200, Vec3A::X, Vec3A::Y, 50)
 }
 
 fn flat_scene(n: usize) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(5, 9);
-    (0..n)
-        .map(|_| {
-            let c = Vec3A::new(rng.range_f32(0.0, 100.0), rng.range_f32(0.0, 100.0), 2.0);
-            let a = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
-            let b = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
-            Triangle::new(c, c + a, c + b)
-        })
-        .collect()
-}
-
-fn max_leaf(bvh: &Bvh) -> usize {
-    bvh.nodes
-        .iter()
-        .filter(|n| n.is_leaf())
-        .map(|n| n.count as usize)
-        .max()
-        .unwrap_or(0)
+    soups::flat_scene(n, 1.0)
 }
 
 fn build(tris: &[Triangle], config: BinnedConfig) -> Bvh {
@@ -58,16 +31,6 @@ fn build(tris: &[Triangle], config: BinnedConfig) -> Bvh {
     assert!(!bvh.spatial_splits);
     assert!(max_leaf(&bvh) <= config.max_leaf_size);
     bvh
-}
-
-fn bits(bvh: &Bvh) -> Vec<u32> {
-    let mut v = Vec::new();
-    for n in &bvh.nodes {
-        v.extend(n.min.iter().chain(&n.max).map(|x| x.to_bits()));
-        v.extend([n.index, n.count]);
-    }
-    v.extend(&bvh.prim_indices);
-    v
 }
 
 #[test]
@@ -90,7 +53,7 @@ fn random_soups_validate() {
 
 #[test]
 fn clustered_centroids_respect_max_leaf() {
-    let tris = clustered(4000);
+    let tris = clustered_centroid(4000);
     let bvh = build(&tris, BinnedConfig::DEFAULT);
     assert!(bvh.stats().depth < 200);
 }
@@ -158,7 +121,7 @@ fn cost_only_equals_sah_of_tree() {
         for (tris, config) in [
             (soup(20_000, 21), BinnedConfig::DEFAULT),
             (soup(3000, 22), BinnedConfig::FAST),
-            (clustered(3000), BinnedConfig::FINE),
+            (clustered_centroid(3000), BinnedConfig::FINE),
             (degenerate_mix(), BinnedConfig::DEFAULT),
             (flat_scene(2000), BinnedConfig::DEFAULT),
         ] {

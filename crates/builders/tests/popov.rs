@@ -6,18 +6,20 @@ use sahara_builders::popov::{Frontier, PopovBuilder, PopovConfig};
 use sahara_builders::sweep::{SweepBuilder, SweepConfig};
 use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_builders::{registry, BuildInput, Builder};
+use sahara_fixtures::meshes::mesh_like;
+use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
 use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
 
 fn inputs() -> Vec<(String, Vec<Triangle>)> {
     let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup".into(), soup(2000, 1)),
-        ("clustered".into(), clustered(2000, 2)),
+        ("soup".into(), box_soup(2000, 1)),
+        ("clustered".into(), clustered_boxes(2000, 2)),
         ("mesh".into(), mesh_like(25, 3)),
     ];
     v.extend(
-        degenerate_cases()
+        named_degenerates()
             .into_iter()
             .map(|(n, t)| (n.to_string(), t)),
     );
@@ -110,7 +112,7 @@ fn hybrid_everywhere_sah_never_above_sweep() {
 
 #[test]
 fn rejects_bad_configs() {
-    let tris = soup(10, 1);
+    let tris = box_soup(10, 1);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     for c in [
         PopovConfig {

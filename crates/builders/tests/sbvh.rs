@@ -3,6 +3,7 @@
 use sahara_builders::binned::{BinnedBuilder, BinnedConfig};
 use sahara_builders::sbvh::{sbvh_cost_only, ObjectSplitMethod, SbvhBuilder, SbvhConfig};
 use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_fixtures::soups::{clustered_centroid, flat_scene, rand_point, sized_soup};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
@@ -30,15 +31,6 @@ fn needs_spatial() -> Vec<Triangle> {
         tris.push(Triangle::new(a, b, b + Vec3A::X * 0.3));
     }
     tris
-}
-
-fn max_leaf(bvh: &Bvh) -> usize {
-    bvh.nodes
-        .iter()
-        .filter(|n| n.is_leaf())
-        .map(|n| n.count as usize)
-        .max()
-        .unwrap_or(0)
 }
 
 fn build_with(tris: &[Triangle], config: SbvhConfig, cost: CostModel) -> Bvh {
@@ -82,7 +74,7 @@ fn configs() -> Vec<SbvhConfig> {
 fn random_soups_validate() {
     for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (3000, 5)] {
         for config in configs() {
-            build(&soup(n, seed, 8.0), config);
+            build(&sized_soup(n, seed, 8.0), config);
         }
     }
 }
@@ -140,7 +132,7 @@ fn zero_budget_means_no_duplication() {
 #[test]
 fn clustered_centroids_respect_max_leaf() {
     for config in configs() {
-        build(&clustered(3000), config);
+        build(&clustered_centroid(3000), config);
     }
 }
 
@@ -169,14 +161,14 @@ fn degenerate_inputs() {
 #[test]
 fn flat_scene_validates() {
     for config in configs() {
-        build(&flat_scene(2000), config);
+        build(&flat_scene(2000, 9.0), config);
     }
 }
 
 #[test]
 fn huge_and_tiny_triangles_mixed() {
     // A wide range of sizes, as in real scenes: big walls and tiny details.
-    let mut tris = soup(2000, 61, 0.05);
+    let mut tris = sized_soup(2000, 61, 0.05);
     let mut rng = Pcg32::new(3, 3);
     for _ in 0..200 {
         tris.push(Triangle::new(
@@ -192,7 +184,7 @@ fn huge_and_tiny_triangles_mixed() {
 
 #[test]
 fn invalid_config_is_rejected() {
-    let tris = soup(10, 1, 1.0);
+    let tris = sized_soup(10, 1, 1.0);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     for config in [
         SbvhConfig {
@@ -220,8 +212,8 @@ fn invalid_config_is_rejected() {
 fn cost_only_equals_sah_of_tree() {
     for (tris, config) in [
         (needs_spatial(), SbvhConfig::DEFAULT),
-        (soup(5000, 71, 10.0), SbvhConfig::DEFAULT),
-        (soup(3000, 72, 10.0), SbvhConfig::FAST),
+        (sized_soup(5000, 71, 10.0), SbvhConfig::DEFAULT),
+        (sized_soup(3000, 72, 10.0), SbvhConfig::FAST),
         (degenerate_mix(300, 200, 50), SbvhConfig::DEFAULT),
     ] {
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();
@@ -235,7 +227,7 @@ fn cost_only_equals_sah_of_tree() {
 
 #[test]
 fn deterministic_across_thread_counts() {
-    let mut tris = soup(30_000, 81, 6.0);
+    let mut tris = sized_soup(30_000, 81, 6.0);
     tris.extend(needs_spatial());
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let run = |threads: usize| {

@@ -10,31 +10,21 @@
 //! registry names. Each build is validated; its time (best of `REPEAT`, default 1), SAH and
 //! reference count are printed.
 
-mod spatial_support;
-
 use sahara_builders::{registry, BuildInput};
+use sahara_fixtures::scenes::{env_list, scene_file_triangles};
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::Catalog;
 use std::time::Instant;
-
-fn list(var: &str, default: &str) -> Vec<String> {
-    std::env::var(var)
-        .unwrap_or_else(|_| default.to_string())
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .collect()
-}
 
 #[test]
 #[ignore = "measurement on real scenes; run in release with --ignored --nocapture"]
 fn measure_scenes() {
     let catalog = Catalog::discover();
-    let scenes = list(
+    let scenes = env_list(
         "SCENES",
         "sibenik,sponza_dabrovic,san_francisco_osm,teapot_in_stadium",
     );
-    let builders = list("BUILDERS", "binned,sweep,sbvh");
+    let builders = env_list("BUILDERS", "binned,sweep,sbvh");
     let repeat: usize = std::env::var("REPEAT")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -48,7 +38,7 @@ fn measure_scenes() {
         "scene", "builder", "tris", "build_ms", "sah", "refs", "depth"
     );
     for scene in &scenes {
-        let Some(tris) = spatial_support::scene_file_triangles(&catalog, scene) else {
+        let Some(tris) = scene_file_triangles(&catalog, scene) else {
             continue;
         };
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();

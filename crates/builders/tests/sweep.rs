@@ -6,19 +6,21 @@ use sahara_builders::sweep::{
     sorted_orders, split_orders, sweep_cost, Marks, SweepBuilder, SweepConfig, SweepScratch,
 };
 use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_fixtures::meshes::mesh_like;
+use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
 use sahara_geom::{Aabb, Triangle};
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
 
 fn inputs() -> Vec<(String, Vec<Triangle>)> {
     let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup-3000".into(), soup(3000, 1)),
-        ("soup-20000".into(), soup(20_000, 2)),
-        ("clustered-3000".into(), clustered(3000, 3)),
+        ("soup-3000".into(), box_soup(3000, 1)),
+        ("soup-20000".into(), box_soup(20_000, 2)),
+        ("clustered-3000".into(), clustered_boxes(3000, 3)),
         ("mesh-40".into(), mesh_like(40, 4)),
     ];
     v.extend(
-        degenerate_cases()
+        named_degenerates()
             .into_iter()
             .map(|(n, t)| (n.to_string(), t)),
     );
@@ -38,7 +40,7 @@ fn valid_deterministic_and_bounded_leaves() {
         parallel_threshold: 16,
         ..SweepConfig::DEFAULT
     });
-    let tris = soup(5000, 9);
+    let tris = box_soup(5000, 9);
     let t = check_builder(&b, &tris, 8, "threshold 16");
     assert_eq!(t, build_in(&SweepBuilder::default(), &tris, 2));
 }
@@ -47,13 +49,13 @@ fn valid_deterministic_and_bounded_leaves() {
 fn registered() {
     let b = registry::by_name("sweep").expect("sweep is registered");
     assert_eq!(b.name(), "sweep");
-    let tris = soup(100, 3);
+    let tris = box_soup(100, 3);
     check_builder(b.as_ref(), &tris, 8, "registry");
 }
 
 #[test]
 fn rejects_zero_leaf_size() {
-    let tris = soup(10, 1);
+    let tris = box_soup(10, 1);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     assert!(
         SweepBuilder::new(SweepConfig::DEFAULT.with_max_leaf_size(0))
@@ -116,7 +118,7 @@ fn cost_only_equals_sah_of_built_tree() {
 /// that side alone (its triangles renumbered in increasing order, which keeps the tie-breaks).
 #[test]
 fn split_orders_then_cost_equals_builder_on_the_side() {
-    let tris = soup(4000, 21);
+    let tris = box_soup(4000, 21);
     let cost = CostModel::default();
     let input = BuildInput::new(&tris, cost).unwrap();
     let ids: Vec<u32> = (0..tris.len() as u32).collect();
@@ -232,10 +234,10 @@ fn leaves(bvh: &Bvh) -> Vec<Vec<u32>> {
 #[test]
 fn equals_naive_reference() {
     let cases = vec![
-        soup(300, 31),
-        clustered(250, 32),
+        box_soup(300, 31),
+        clustered_boxes(250, 32),
         mesh_like(10, 33),
-        degenerate_cases()
+        named_degenerates()
             .into_iter()
             .flat_map(|(_, t)| t)
             .collect(),
@@ -261,7 +263,7 @@ fn equals_naive_reference() {
 #[test]
 #[ignore]
 fn large_soup_timing() {
-    let tris = soup(1_000_000, 77);
+    let tris = box_soup(1_000_000, 77);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let t = std::time::Instant::now();
     let bvh = SweepBuilder::default().build(&input).unwrap();

@@ -5,6 +5,8 @@ mod tsah_support;
 use sahara_builders::sweep::{SweepBuilder, SweepConfig};
 use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_builders::{registry, BuildInput, Builder};
+use sahara_fixtures::meshes::mesh_like;
+use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
 use sahara_geom::{Aabb, Triangle};
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
@@ -20,12 +22,12 @@ fn presets() -> Vec<(&'static str, TsahConfig)> {
 fn inputs(small: bool) -> Vec<(String, Vec<Triangle>)> {
     let (a, b) = if small { (150, 9) } else { (3000, 30) };
     let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup".into(), soup(a, 1)),
-        ("clustered".into(), clustered(a, 2)),
+        ("soup".into(), box_soup(a, 1)),
+        ("clustered".into(), clustered_boxes(a, 2)),
         ("mesh".into(), mesh_like(b, 3)),
     ];
     v.extend(
-        degenerate_cases()
+        named_degenerates()
             .into_iter()
             .map(|(n, t)| (n.to_string(), t)),
     );
@@ -91,14 +93,14 @@ fn registered_presets() {
         let b = (e.make)();
         assert_eq!(b.name(), name);
         assert!(!b.describe().is_empty());
-        let tris = soup(120, 4);
+        let tris = box_soup(120, 4);
         check_builder(b.as_ref(), &tris, 8, name);
     }
 }
 
 #[test]
 fn rejects_bad_configs() {
-    let tris = soup(10, 1);
+    let tris = box_soup(10, 1);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let bad = [
         TsahConfig {
@@ -131,12 +133,12 @@ fn rejects_bad_configs() {
 #[test]
 fn sah_never_above_sweep() {
     let scenes: Vec<(&str, Vec<Triangle>)> = vec![
-        ("soup", soup(2500, 41)),
-        ("clustered", clustered(2500, 42)),
+        ("soup", box_soup(2500, 41)),
+        ("clustered", clustered_boxes(2500, 42)),
         ("mesh", mesh_like(32, 43)),
         (
             "degenerate",
-            degenerate_cases()
+            named_degenerates()
                 .into_iter()
                 .flat_map(|(_, t)| t)
                 .collect(),
@@ -299,11 +301,11 @@ impl Ref<'_> {
 
 #[test]
 fn exhaustive_equals_brute_force_reference() {
-    let mut cases: Vec<Vec<Triangle>> = (0..6).map(|s| soup(40, 100 + s)).collect();
-    cases.push(clustered(40, 7));
+    let mut cases: Vec<Vec<Triangle>> = (0..6).map(|s| box_soup(40, 100 + s)).collect();
+    cases.push(clustered_boxes(40, 7));
     cases.push(mesh_like(4, 8));
     cases.push(
-        degenerate_cases()
+        named_degenerates()
             .into_iter()
             .flat_map(|(_, t)| t)
             .take(45)
@@ -362,7 +364,7 @@ fn exhaustive_equals_brute_force_reference() {
 /// are built on two tasks: still the same tree with 1 and 2 threads.
 #[test]
 fn parallel_rating_paths_are_deterministic() {
-    let tris = soup(9000, 61);
+    let tris = box_soup(9000, 61);
     for config in [TsahConfig::TOP_K, TsahConfig::BINNED] {
         check_builder(&TsahBuilder::new(config), &tris, 8, "soup-9000");
     }

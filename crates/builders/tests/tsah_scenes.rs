@@ -8,18 +8,17 @@
 //! `TSAH_EPO=1` to also compute the EPO metric. Scenes are loaded by `sahara_scene` (`.obj`,
 //! `.obj.gz`, `.gltf`, `.glb`); missing ones are skipped with a message.
 
-mod spatial_support;
-mod tsah_support;
-
 use std::path::Path;
 use std::time::Instant;
 
 use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_builders::{registry, BuildInput, Builder, Bvh, Strategy};
+use sahara_fixtures::meshes::mesh_like;
+use sahara_fixtures::scenes::{env_list, scene_file_triangles};
+use sahara_fixtures::soups::box_soup;
 use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::{Catalog, Origin};
-use spatial_support::scene_file_triangles;
 
 /// The scenes: the folder `SAHARA_SHARED_SCENES` alone when it is set, else the catalog's.
 fn catalog() -> Catalog {
@@ -29,15 +28,6 @@ fn catalog() -> Catalog {
     let mut c = Catalog::default();
     c.add_dir(Path::new(&dir), Origin::Env);
     c
-}
-
-fn list(var: &str, default: &str) -> Vec<String> {
-    std::env::var(var)
-        .unwrap_or_else(|_| default.to_string())
-        .split(',')
-        .filter(|s| !s.is_empty())
-        .map(str::to_string)
-        .collect()
 }
 
 /// CPU time of the process so far (all threads), in milliseconds, from `/proc/self/stat`.
@@ -97,11 +87,11 @@ fn print_row(scene: &str, n: usize, name: &str, r: &Row, base: Option<&Row>) {
 #[test]
 #[ignore]
 fn measure_presets() {
-    let scenes = list(
+    let scenes = env_list(
         "TSAH_SCENES",
         "sibenik,sponza_dabrovic,stanford_bunny,teapot_in_stadium",
     );
-    let builders = list(
+    let builders = env_list(
         "TSAH_BUILDERS",
         "sweep,tsah-topk,tsah-binned,popov-d2,hybrid",
     );
@@ -133,7 +123,7 @@ fn measure_presets() {
 #[test]
 #[ignore]
 fn measure_knobs() {
-    let scenes = list(
+    let scenes = env_list(
         "TSAH_SCENES",
         "sibenik,stanford_bunny,teapot_in_stadium,soup,mesh",
     );
@@ -194,8 +184,8 @@ fn measure_knobs() {
     let catalog = catalog();
     for scene in &scenes {
         let tris = match scene.as_str() {
-            "soup" => tsah_support::soup(100_000, 5),
-            "mesh" => tsah_support::mesh_like(200, 6),
+            "soup" => box_soup(100_000, 5),
+            "mesh" => mesh_like(200, 6),
             s => match scene_file_triangles(&catalog, s) {
                 Some(t) => t,
                 None => continue,
@@ -217,7 +207,7 @@ fn measure_dragon() {
     let Some(tris) = scene_file_triangles(&catalog(), "stanford_dragon") else {
         return;
     };
-    let builders = list("TSAH_BUILDERS", "sweep,tsah-topk");
+    let builders = env_list("TSAH_BUILDERS", "sweep,tsah-topk");
     let epo = std::env::var("TSAH_EPO").is_ok();
     let mut base = None;
     for name in &builders {
@@ -262,7 +252,7 @@ fn measure_configs() {
         return;
     };
     let configs: Vec<TsahConfig> = serde_json::from_str(&json).unwrap();
-    let scenes = list("TSAH_SCENES", "sibenik,sponza_dabrovic");
+    let scenes = env_list("TSAH_SCENES", "sibenik,sponza_dabrovic");
     let epo = std::env::var("TSAH_EPO").is_ok();
     eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
     eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
@@ -289,7 +279,7 @@ fn measure_popov_configs() {
         return;
     };
     let configs: Vec<sahara_builders::popov::PopovConfig> = serde_json::from_str(&json).unwrap();
-    let scenes = list("TSAH_SCENES", "sibenik,sponza_dabrovic");
+    let scenes = env_list("TSAH_SCENES", "sibenik,sponza_dabrovic");
     let epo = std::env::var("TSAH_EPO").is_ok();
     eprintln!("| scene | triangles | config | build ms | CPU ms | SAH | vs sweep | EPO | leaves |");
     eprintln!("|---|---:|---|---:|---:|---:|---:|---:|---:|");

@@ -3,6 +3,7 @@
 use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
 use sahara_builders::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_fixtures::soups::{clustered_centroid, flat_scene, sized_soup};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
@@ -108,7 +109,7 @@ fn build_with(tris: &[Triangle], config: TsahSpatialConfig) -> Bvh {
 fn random_soups_validate() {
     for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (1500, 5)] {
         for config in configs() {
-            build_with(&soup(n, seed, 8.0), config);
+            build_with(&sized_soup(n, seed, 8.0), config);
         }
     }
 }
@@ -116,9 +117,9 @@ fn random_soups_validate() {
 #[test]
 fn clustered_degenerate_and_flat_inputs() {
     for config in configs() {
-        build_with(&clustered(600), config);
+        build_with(&clustered_centroid(600), config);
         build_with(&degenerate_mix(200, 100, 40), config);
-        build_with(&flat_scene(1000), config);
+        build_with(&flat_scene(1000, 9.0), config);
         let p = Vec3A::new(1.0, -2.0, 3.0);
         build_with(&vec![Triangle::new(p, p, p); 300], config);
         build_with(&[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)], config);
@@ -130,8 +131,8 @@ fn clustered_degenerate_and_flat_inputs() {
 fn sah_never_above_sbvh() {
     for tris in [
         needs_spatial(),
-        soup(1500, 21, 10.0),
-        clustered(800),
+        sized_soup(1500, 21, 10.0),
+        clustered_centroid(800),
         degenerate_mix(200, 100, 40),
     ] {
         for cost in [CostModel::AILA, CostModel::UNIT] {
@@ -155,7 +156,7 @@ fn sah_never_above_sbvh() {
 
 #[test]
 fn improves_on_sbvh_somewhere() {
-    let tris = soup(1500, 31, 10.0);
+    let tris = sized_soup(1500, 31, 10.0);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let reference = sah(&SbvhBuilder::default().build(&input).unwrap(), &input.cost);
     for config in [small(), exact()] {
@@ -169,7 +170,7 @@ fn improves_on_sbvh_somewhere() {
 
 #[test]
 fn no_duplication_without_budget() {
-    let mut tris = soup(1000, 61, 10.0);
+    let mut tris = sized_soup(1000, 61, 10.0);
     tris.extend(needs_spatial());
     for base in [small(), exact()] {
         let no_budget = SbvhConfig {
@@ -188,7 +189,7 @@ fn no_duplication_without_budget() {
 
 #[test]
 fn huge_min_size_is_plain_sbvh() {
-    let tris = soup(800, 41, 10.0);
+    let tris = sized_soup(800, 41, 10.0);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let config = TsahSpatialConfig {
         min_size: usize::MAX,
@@ -201,7 +202,7 @@ fn huge_min_size_is_plain_sbvh() {
 
 #[test]
 fn deterministic_across_thread_counts() {
-    let mut tris = soup(2500, 51, 6.0);
+    let mut tris = sized_soup(2500, 51, 6.0);
     tris.extend(needs_spatial());
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     for config in [
@@ -225,7 +226,7 @@ fn deterministic_across_thread_counts() {
 
 #[test]
 fn invalid_config_is_rejected() {
-    let tris = soup(10, 1, 1.0);
+    let tris = sized_soup(10, 1, 1.0);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let bad = [
         TsahSpatialConfig {

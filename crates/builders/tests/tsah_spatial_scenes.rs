@@ -11,11 +11,10 @@
 //! (default `default,fast`; see the list below, `old-default` is the default before
 //! issue #4: exact temporaries, plain top-k candidates, `min_size` 256).
 
-mod spatial_support;
-
 use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
 use sahara_builders::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_builders::{BuildInput, Builder};
+use sahara_fixtures::scenes::scene_file_triangles;
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::Catalog;
 use std::time::Instant;
@@ -92,7 +91,7 @@ fn measure_knobs() {
     configs.retain(|(n, _)| which.split(',').any(|w| w == *n));
     println!("threads: {}", rayon::current_num_threads());
     for scene in scenes.split(',') {
-        let Some(tris) = spatial_support::scene_file_triangles(&catalog, scene) else {
+        let Some(tris) = scene_file_triangles(&catalog, scene) else {
             continue;
         };
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();

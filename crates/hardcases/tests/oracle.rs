@@ -9,6 +9,7 @@
 
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::Bvh;
+use sahara_fixtures::scenes::shared_scene_files;
 use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
 use sahara_hardcases::camera_rays;
 use sahara_hardcases::floors::{levels, FlatRayKind};
@@ -92,14 +93,9 @@ fn scene_rays(scene: &sahara_scene::Scene, tris: &[Triangle], bvh: &Bvh) -> (Vec
 #[test]
 fn shared_scenes_every_real_hit_found() {
     let catalog = Catalog::discover();
-    let files = catalog.distinct_files();
-    if files.is_empty() {
-        eprintln!(
-            "SKIPPED: no scene files found (../shared/scenes absent, ${} unset)",
-            sahara_scene::SCENES_ENV
-        );
+    let Some(files) = shared_scene_files(&catalog, false) else {
         return;
-    }
+    };
     for e in files {
         let scene = catalog.load_entry(e).unwrap();
         let tris = scene.triangles();

@@ -2,9 +2,11 @@
 
 mod common;
 
-use common::{brute_epo, build, close, grid, random_soup, sphere, Split};
+use common::{brute_epo, build, close, Split};
 use proptest::prelude::*;
 use sahara_bvh::{Bvh, Node};
+use sahara_fixtures::meshes::{height_field, sphere};
+use sahara_fixtures::soups::unit_cube_soup;
 use sahara_geom::{clip::clipped_bounds, Aabb, Triangle, Vec3A};
 use sahara_metrics::{
     endpoint_overlap, epo, epo_breakdown, epo_with_node_weights, sample_surface_endpoints,
@@ -35,7 +37,7 @@ fn check(bvh: &Bvh, tris: &[Triangle], what: &str) {
 #[test]
 fn random_soups_match_brute_force() {
     for (seed, n, size) in [(1, 50, 0.3), (2, 200, 0.2), (3, 300, 0.6), (4, 120, 0.05)] {
-        let tris = random_soup(n, size, seed);
+        let tris = unit_cube_soup(n, size, seed);
         for (leaf, split) in [
             (1, Split::Median),
             (4, Split::Median),
@@ -54,7 +56,7 @@ fn random_soups_match_brute_force() {
 
 #[test]
 fn procedural_scenes_match_brute_force() {
-    let scenes = [("grid", grid(14)), ("sphere", sphere(10, 16))];
+    let scenes = [("grid", height_field(14)), ("sphere", sphere(10, 16))];
     for (name, tris) in &scenes {
         for (leaf, split) in [
             (1, Split::Median),
@@ -146,7 +148,7 @@ fn spatial_split_tree_matches_brute_force() {
 fn empty_and_trivial_trees() {
     let c = CostModel::default();
     assert_eq!(epo(&Bvh::empty(), &[], &c), 0.0);
-    let tris = random_soup(5, 0.3, 5);
+    let tris = unit_cube_soup(5, 0.3, 5);
     let one_leaf = build(&tris, 8, Split::Median);
     assert_eq!(one_leaf.nodes.len(), 1);
     assert_eq!(
@@ -158,7 +160,7 @@ fn empty_and_trivial_trees() {
 
 #[test]
 fn deterministic_across_thread_counts() {
-    let tris = random_soup(6000, 0.08, 11);
+    let tris = unit_cube_soup(6000, 0.08, 11);
     let bvh = build(&tris, 4, Split::Median);
     let c = CostModel::default();
     let run = |threads| {
@@ -192,7 +194,7 @@ fn node_weights_scale_each_term() {
 
 #[test]
 fn uniform_endpoints_estimate_epo() {
-    let tris = random_soup(400, 0.25, 21);
+    let tris = unit_cube_soup(400, 0.25, 21);
     let bvh = build(&tris, 2, Split::Median);
     let c = CostModel::AILA;
     let exact = epo(&bvh, &tris, &c);
@@ -222,7 +224,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     #[test]
     fn prop_matches_brute_force(seed in 0u64..1_000_000, n in 1usize..60, size in 0.01f32..0.8, leaf in 1usize..4, random in any::<bool>()) {
-        let tris = random_soup(n, size, seed);
+        let tris = unit_cube_soup(n, size, seed);
         let split = if random { Split::Random(seed) } else { Split::Median };
         let bvh = build(&tris, leaf, split);
         let c = CostModel::AILA;

@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::{build, close, grid, random_soup, sphere, Split};
+use common::{build, close, Split};
+use sahara_fixtures::meshes::{height_field, sphere};
+use sahara_fixtures::soups::unit_cube_soup;
 use sahara_geom::{
     intersect::intersect_aabb, intersect::intersect_ray_triangle, rng::Pcg32, Aabb, Vec3A,
 };
@@ -26,7 +28,7 @@ fn camera() -> CameraGrid {
 
 #[test]
 fn area_weights_give_the_sah() {
-    let tris = random_soup(300, 0.2, 8);
+    let tris = unit_cube_soup(300, 0.2, 8);
     for split in [Split::Median, Split::Random(2)] {
         let bvh = build(&tris, 3, split);
         for c in [CostModel::AILA, CostModel::UNIT] {
@@ -88,7 +90,7 @@ fn box_weight_counts_exactly_the_grid_rays_that_hit() {
 
 #[test]
 fn segment_weights_without_occlusion_equal_box_weights() {
-    let tris = random_soup(500, 0.15, 9);
+    let tris = unit_cube_soup(500, 0.15, 9);
     let bvh = build(&tris, 2, Split::Median);
     let cam = camera();
     let seg = segment_node_weights(&bvh, &cam.rays());
@@ -137,7 +139,7 @@ fn closest_hits_match_brute_force() {
 
 #[test]
 fn primary_ray_metrics_are_consistent() {
-    let scenes = [grid(16), sphere(12, 20)];
+    let scenes = [height_field(16), sphere(12, 20)];
     let cam = CameraGrid::new(
         Vec3A::new(0.5, 1.5, 2.5),
         Vec3A::new(0.5, 0.0, 0.5),

@@ -30,6 +30,7 @@
 
 use rayon::prelude::*;
 use sahara_builders::{registry, BuildInput, CostModel};
+use sahara_fixtures::scenes::{shared_scene_files, verify_all};
 use sahara_geom::{Ray, Triangle};
 use sahara_scene::{Catalog, Procedural, Scene};
 use sahara_trace::{Bvh2Tracer, Camera, RayKind, RaySet};
@@ -51,10 +52,6 @@ const BRUTE_BUDGET: usize = 50_000_000;
 
 /// The seed of the diffuse and AO ray sets.
 const SEED: u64 = 7;
-
-fn verify_all() -> bool {
-    std::env::var_os("SAHARA_VERIFY_ALL").is_some_and(|v| v != "0")
-}
 
 /// The image size of the ray sets.
 fn resolution() -> (u32, u32) {
@@ -383,22 +380,9 @@ fn layouts_agree_with_the_reference_on_shared_scenes() {
     let catalog = Catalog::discover();
     // Another format of a model already listed (the engine's GLB: its OBJ's model, vertices
     // differing by the exporter's rounding) is checked only by `cargo xtask verify`.
-    let files: Vec<_> = if verify_all() {
-        catalog
-            .entries()
-            .iter()
-            .filter(|e| e.path().is_some())
-            .collect()
-    } else {
-        catalog.distinct_files()
-    };
-    if files.is_empty() {
-        eprintln!(
-            "no scene files found (../shared/scenes absent, ${} unset): nothing to check",
-            sahara_scene::SCENES_ENV
-        );
+    let Some(files) = shared_scene_files(&catalog, verify_all()) else {
         return;
-    }
+    };
     let backends: Vec<&str> = Backend::ALL
         .into_iter()
         .filter(|b| b.is_available())

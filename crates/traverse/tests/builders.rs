@@ -1,6 +1,8 @@
 //! Every registered builder on every scene: the tree validates, and the reference traversal's
 //! closest hits and any-hits equal brute force ray by ray (distance, triangle and
-//! barycentrics; exact ties go to the lowest triangle index in both).
+//! barycentrics; exact ties go to the lowest triangle index in both), on about 10^4 rays
+//! (`sahara_fixtures::rays::scene_rays`: a 100×100 grid of camera rays, plus segments between
+//! random points of the scene's bounds, which start inside interiors and end in mid air).
 //!
 //! By default this covers every procedural scene with every builder, and every scene of
 //! `../shared/scenes` (when present) with the builders that take seconds there. Set
@@ -9,46 +11,11 @@
 
 use rayon::prelude::*;
 use sahara_builders::{registry, BuildInput, CostModel};
-use sahara_geom::{rng::Pcg32, Ray, Triangle, Vec3A};
+use sahara_fixtures::rays::scene_rays;
+use sahara_fixtures::scenes::{shared_scene_files, verify_all};
+use sahara_geom::Triangle;
 use sahara_scene::{Catalog, Procedural};
 use sahara_traverse::{brute, scalar, NoStats};
-
-/// About 10^4 rays: a 100×100 grid of camera rays, plus rays between random points of the
-/// scene's bounds (which start inside interiors and end in mid air).
-fn rays_for(scene: &sahara_scene::Scene, n_grid: u32, n_random: usize) -> Vec<Ray> {
-    let cam = &scene.camera;
-    let f = (cam.target - cam.eye).normalize();
-    let r = f.cross(cam.up).normalize_or_zero();
-    let r = if r == Vec3A::ZERO {
-        f.any_orthonormal_vector()
-    } else {
-        r
-    };
-    let u = r.cross(f);
-    let tan = (cam.fov_y_degrees.to_radians() * 0.5).tan();
-    let mut rays = Vec::new();
-    for y in 0..n_grid {
-        for x in 0..n_grid {
-            let sx = (2.0 * (x as f32 + 0.5) / n_grid as f32 - 1.0) * tan;
-            let sy = (1.0 - 2.0 * (y as f32 + 0.5) / n_grid as f32) * tan;
-            rays.push(Ray::new(cam.eye, f + r * sx + u * sy, 0.0, f32::INFINITY));
-        }
-    }
-    let b = scene.bounds();
-    let mut rng = Pcg32::new(7, 3);
-    let mut point = || {
-        Vec3A::new(
-            rng.range_f32(b.min.x, b.max.x),
-            rng.range_f32(b.min.y, b.max.y),
-            rng.range_f32(b.min.z, b.max.z),
-        )
-    };
-    for _ in 0..n_random {
-        let (o, t) = (point(), point());
-        rays.push(Ray::new(o, t - o, 0.0, 1.0));
-    }
-    rays
-}
 
 /// Builds with every builder, checks each tree, and returns (builder, SAH, largest leaf).
 fn check_scene(
@@ -57,7 +24,7 @@ fn check_scene(
     builders: &[&str],
 ) -> Vec<(String, f64, usize)> {
     let tris: Vec<Triangle> = scene.triangles();
-    let rays = rays_for(scene, 100, 2_000);
+    let rays = scene_rays(scene, 100, 2_000);
     let expect: Vec<_> = rays
         .par_iter()
         .map(|r| brute::closest_hit(&tris, r))
@@ -148,10 +115,6 @@ fn all_builders() -> Vec<&'static str> {
         .collect()
 }
 
-fn verify_all() -> bool {
-    std::env::var_os("SAHARA_VERIFY_ALL").is_some_and(|v| v != "0")
-}
-
 #[test]
 fn every_builder_on_every_procedural_scene() {
     let builders = all_builders();
@@ -203,19 +166,9 @@ fn every_builder_on_every_shared_scene() {
     let catalog = Catalog::discover();
     // Another format of a model already listed (the engine's GLB: its OBJ's model, vertices
     // differing by the exporter's rounding) is checked only by `cargo xtask verify`.
-    let files: Vec<_> = if verify_all() {
-        catalog
-            .entries()
-            .iter()
-            .filter(|e| e.path().is_some())
-            .collect()
-    } else {
-        catalog.distinct_files()
-    };
-    if files.is_empty() {
-        eprintln!("no scene files found (../shared/scenes absent): nothing to check");
+    let Some(files) = shared_scene_files(&catalog, verify_all()) else {
         return;
-    }
+    };
     let everything = all_builders();
     for e in files {
         let scene = catalog.load_entry(e).unwrap();

@@ -5,6 +5,7 @@
 mod wide_common;
 
 use sahara_bvh::Bvh;
+use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::{intersect::intersect_triangle, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
     brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, Layout, NoStats, WideBvh, WorkCounters,
@@ -112,7 +113,7 @@ fn backend_names() {
     assert!(Backend::Portable.is_available());
     #[cfg(target_arch = "x86_64")]
     assert!(Backend::Sse2.is_available());
-    let tris = random_soup(50, 1);
+    let tris = mixed_soup(50, 1);
     let w = Bvh8::from_bvh(&median_bvh(&tris, 2), &tris);
     assert_eq!(w.backend(), best);
     eprintln!("SIMD backend: {}", simd_backend());
@@ -144,7 +145,7 @@ fn empty_and_single_leaf_trees() {
     }
     // One leaf holding everything (more than 32 triangles: becomes a small subtree).
     for n in [1, 3, 4, 5, 33, 100, 300] {
-        let tris = random_soup(n, n as u64);
+        let tris = mixed_soup(n, n as u64);
         let bvh = median_bvh(&tris, usize::MAX);
         assert_eq!(bvh.nodes.len(), 1);
         let rays = random_rays(&scene_box(&tris), 300, 5);
@@ -155,7 +156,7 @@ fn empty_and_single_leaf_trees() {
 #[test]
 fn random_soups_agree() {
     for (n, seed) in [(300, 1), (3000, 2)] {
-        let tris = random_soup(n, seed);
+        let tris = mixed_soup(n, seed);
         let b = scene_box(&tris);
         let rays = random_rays(&b, 3000, seed);
         for leaf in [1, 2, 4, 7, 40] {
@@ -234,7 +235,7 @@ fn sphere_in_box_agrees_and_is_watertight() {
 
 #[test]
 fn vertex_and_edge_rays_agree() {
-    let tris = random_soup(500, 3);
+    let tris = mixed_soup(500, 3);
     let b = scene_box(&tris);
     let rays = vertex_and_edge_rays(&tris, &b, 6000, 6);
     for bvh in [
@@ -248,7 +249,7 @@ fn vertex_and_edge_rays_agree() {
 
 #[test]
 fn spatial_split_trees_agree() {
-    let tris = random_soup(800, 4);
+    let tris = mixed_soup(800, 4);
     let b = scene_box(&tris);
     let rays = random_rays(&b, 3000, 8);
     for leaf in [1, 3, 8] {
@@ -272,7 +273,7 @@ fn spatial_split_trees_agree() {
 #[test]
 fn adversarial_rays_agree() {
     let (sphere, _) = sphere_in_box(12, 16, 1.0, 2.0, 3);
-    for tris in [random_soup(600, 5), sphere] {
+    for tris in [mixed_soup(600, 5), sphere] {
         let b = scene_box(&tris);
         for bvh in [
             median_bvh(&tris, 2),
@@ -295,7 +296,7 @@ fn adversarial_rays_agree() {
 #[test]
 fn grazing_rays_agree() {
     let (sphere, _) = sphere_in_box(16, 24, 1.0, 2.0, 4);
-    for tris in [random_soup(600, 6), sphere] {
+    for tris in [mixed_soup(600, 6), sphere] {
         for bvh in [
             median_bvh(&tris, 2),
             sah_bvh(&tris, 4),
@@ -310,7 +311,7 @@ fn grazing_rays_agree() {
 #[test]
 fn deep_trees_use_the_heap_stack() {
     // A comb of 700 triangles: depth 700, deeper than the inline stack.
-    let tris = random_soup(700, 7);
+    let tris = mixed_soup(700, 7);
     let bvh = comb_bvh(&tris);
     bvh.validate(&tris).unwrap();
     let rays = random_rays(&scene_box(&tris), 500, 12);
@@ -323,7 +324,7 @@ fn packet_test_is_bit_exact() {
     // scalar function, including rays through vertices and edges (zero edge functions) and
     // degenerate triangles.
     let mut r = Pcg32::new(21, 1);
-    let mut tris = random_soup(300, 8);
+    let mut tris = mixed_soup(300, 8);
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0)); // degenerate
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO));
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y));
@@ -412,7 +413,7 @@ fn original_indices_and_shared_leaves() {
 
 #[test]
 fn stats_count_work() {
-    let tris = random_soup(2000, 9);
+    let tris = mixed_soup(2000, 9);
     let bvh = sah_bvh(&tris, 4);
     let w8 = Bvh8::from_bvh(&bvh, &tris);
     let rays = random_rays(&scene_box(&tris), 500, 13);

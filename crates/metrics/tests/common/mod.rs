@@ -1,8 +1,9 @@
-//! Small scenes, simple builders and brute-force references shared by the metric tests.
+//! Simple builders and brute-force references shared by the metric tests (their scenes are
+//! `sahara_fixtures`' generators).
 #![allow(dead_code)]
 
 use sahara_bvh::{Bvh, Node};
-use sahara_geom::{clip::clipped_area, rng::Pcg32, Aabb, Triangle, Vec3A};
+use sahara_geom::{clip::clipped_area, rng::Pcg32, Aabb, Triangle};
 use sahara_metrics::CostModel;
 use std::collections::BTreeSet;
 
@@ -74,54 +75,6 @@ fn rec(
     let right = rec(tris, r, max_leaf, split, rng, bvh);
     bvh.nodes[me] = Node::inner(&bounds, right as u32);
     me
-}
-
-/// `n` random triangles in the unit cube, of edge up to `size`.
-pub fn random_soup(n: usize, size: f32, seed: u64) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(seed, 1);
-    let p = |rng: &mut Pcg32| Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-    (0..n)
-        .map(|_| {
-            let o = p(&mut rng);
-            let a = o + (p(&mut rng) - 0.5) * size;
-            let b = o + (p(&mut rng) - 0.5) * size;
-            Triangle::new(o, a, b)
-        })
-        .collect()
-}
-
-/// A `n × n` height-field grid of `2 n²` triangles over `[0, 1]²` (y up, gentle bumps).
-pub fn grid(n: usize) -> Vec<Triangle> {
-    let h = |i: usize, j: usize| {
-        let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
-        Vec3A::new(x, 0.1 * (6.0 * x).sin() * (5.0 * z).cos(), z)
-    };
-    let mut v = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            v.push(Triangle::new(h(i, j), h(i + 1, j), h(i + 1, j + 1)));
-            v.push(Triangle::new(h(i, j), h(i + 1, j + 1), h(i, j + 1)));
-        }
-    }
-    v
-}
-
-/// A UV sphere of radius 1 at the origin (`stacks × slices × 2` triangles, some degenerate at
-/// the poles).
-pub fn sphere(stacks: usize, slices: usize) -> Vec<Triangle> {
-    let p = |i: usize, j: usize| {
-        let th = std::f32::consts::PI * i as f32 / stacks as f32;
-        let ph = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
-        Vec3A::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
-    };
-    let mut v = Vec::new();
-    for i in 0..stacks {
-        for j in 0..slices {
-            v.push(Triangle::new(p(i, j), p(i + 1, j), p(i + 1, j + 1)));
-            v.push(Triangle::new(p(i, j), p(i + 1, j + 1), p(i, j + 1)));
-        }
-    }
-    v
 }
 
 /// The brute-force EPO: for every node, the explicit set `Q(n)` of triangles referenced in

@@ -1,4 +1,5 @@
-//! Scenes, tiny builders and ray sets shared by the wide-BVH tests and the benchmark.
+//! Scenes, tiny builders and ray sets shared by the wide-BVH tests and the benchmark (random
+//! soups are `sahara_fixtures::soups::mixed_soup`).
 #![allow(dead_code)]
 
 use sahara_bvh::{Bvh, Node};
@@ -7,21 +8,6 @@ use sahara_geom::{clip, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 // ---------------------------------------------------------------------------------------------
 // Scenes
 // ---------------------------------------------------------------------------------------------
-
-/// `n` random triangles in `[-1, 1]^3`, of mixed sizes (some long and thin).
-pub fn random_soup(n: usize, seed: u64) -> Vec<Triangle> {
-    let mut r = Pcg32::new(seed, 7);
-    let p = |r: &mut Pcg32, s: f32| {
-        Vec3A::new(r.range_f32(-s, s), r.range_f32(-s, s), r.range_f32(-s, s))
-    };
-    (0..n)
-        .map(|_| {
-            let c = p(&mut r, 1.0);
-            let s = [0.02, 0.1, 0.4][r.below(3) as usize];
-            Triangle::new(c + p(&mut r, s), c + p(&mut r, s), c + p(&mut r, s))
-        })
-        .collect()
-}
 
 /// A closed UV sphere (radius `radius`, centred at the origin; vertices shared exactly between
 /// neighbouring triangles) inside a closed axis-aligned box `[-half, half]^3` whose faces are
