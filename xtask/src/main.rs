@@ -43,7 +43,8 @@ enum Cmd {
     /// The reference kernels judged by the exact oracle on every scene file and on
     /// floor-and-wall levels at 1 to 10^4 units (primary, diffuse and AO rays, 10^5 of each).
     Oracle(oracle_cmd::Args),
-    /// Every builder on every scene: validate, and traversal against brute force ray by ray;
+    /// Every builder's tree on every scene file against its recorded fingerprint; every
+    /// builder on every scene: validate, and traversal against brute force ray by ray;
     /// then every wide layout and backend against the scalar reference on primary, diffuse and
     /// AO rays at 1024×768 (the heavy versions of the test suite's checks; takes minutes).
     Verify,
@@ -68,13 +69,16 @@ fn main() {
     }
 }
 
-/// Runs the equality suites with `SAHARA_VERIFY_ALL=1`: `builders` of sahara-traverse (every
+/// Runs the equality suites with `SAHARA_VERIFY_ALL=1`: `tree_hashes` of sahara-builders
+/// (every registered builder's tree on every shared scene file against its recorded
+/// fingerprint), `builders` of sahara-traverse (every
 /// builder on every scene against brute force) and `layouts_shared_scenes` of sahara-trace
 /// (every layout and backend against the scalar reference, ray by ray, at 1024×768).
 fn verify() -> anyhow::Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut failed = Vec::new();
     for (package, test) in [
+        ("sahara-builders", "tree_hashes"),
         ("sahara-traverse", "builders"),
         ("sahara-trace", "layouts_shared_scenes"),
     ] {

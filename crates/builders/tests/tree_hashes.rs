@@ -141,7 +141,10 @@ fn run_case(
 
 fn finish(table: &Table, bad: Vec<String>) {
     if flag("SAHARA_RECORD_TREE_HASHES") {
-        // Cases run by the other tests of this file are merged into the same table.
+        // Cases run by the other tests of this file are merged into the same table (one
+        // writer at a time: the tests of this file may run on several threads).
+        static WRITER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _one = WRITER.lock().unwrap_or_else(|e| e.into_inner());
         let mut merged = read_table();
         merged.extend(table.clone());
         write_table(&merged);

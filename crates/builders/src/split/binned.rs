@@ -51,14 +51,16 @@ impl Bin {
 }
 
 /// The bin maps of a node's three axes over its centroid bounds (`None` for a flat axis).
+#[inline]
 pub fn maps(centroids: &Aabb, bins: usize) -> [Option<BinMap>; 3] {
-    [0, 1, 2].map(|a| BinMap::new(centroids.min[a], centroids.max[a], bins))
+    std::array::from_fn(|a| BinMap::new(centroids.min[a], centroids.max[a], bins))
 }
 
 /// Fills `bins` (`3 × k`: axis-major) with the items `(box, centroid)`, on the axes that have
-/// a map (the others are left empty).
+/// a map (the others are left empty). With `CENTROIDS == false` the bins' centroid bounds are
+/// left empty (a third of the work of a fill, for callers that do not need them).
 #[inline]
-pub fn fill<'a>(
+pub fn fill<'a, const CENTROIDS: bool>(
     bins: &mut [Bin],
     k: usize,
     maps: &[Option<BinMap>; 3],
@@ -75,14 +77,18 @@ pub fn fill<'a>(
     for (b, c) in items {
         let v = ((c - lo) * scale).min(top);
         let [bx, by, bz] = v.to_array();
-        if on[0] {
-            bins[bx as usize].add(b, c);
-        }
-        if on[1] {
-            bins[k + by as usize].add(b, c);
-        }
-        if on[2] {
-            bins[2 * k + bz as usize].add(b, c);
+        for (on, i) in on
+            .into_iter()
+            .zip([bx as usize, k + by as usize, 2 * k + bz as usize])
+        {
+            if on {
+                let bin = &mut bins[i];
+                bin.count += 1;
+                bin.bounds.grow_aabb(b);
+                if CENTROIDS {
+                    bin.centroids.grow(c);
+                }
+            }
         }
     }
 }
@@ -99,14 +105,14 @@ pub fn fill_par(
 ) {
     let item = |&p: &u32| (&bounds[p as usize], centroids[p as usize]);
     if ids.len() < PAR_NODE_THRESHOLD {
-        fill(bins, k, maps, ids.iter().map(item));
+        fill::<true>(bins, k, maps, ids.iter().map(item));
         return;
     }
     let merged = ids
         .par_chunks(PAR_CHUNK)
         .map(|chunk| {
             let mut local = vec![Bin::EMPTY; 3 * k];
-            fill(&mut local, k, maps, chunk.iter().map(item));
+            fill::<true>(&mut local, k, maps, chunk.iter().map(item));
             local
         })
         .reduce(

@@ -254,7 +254,7 @@ pub fn bin_objects(
     let ObjectScratch { bins: b, right, .. } = scratch;
     b.resize(3 * bins, Bin::EMPTY);
     right.resize(bins, (Aabb::EMPTY, 0));
-    binned::fill(
+    binned::fill::<false>(
         b,
         bins,
         &maps,

@@ -163,7 +163,8 @@ impl<'a> TopDown for BinnedRule<'a> {
 
 impl BinnedRule<'_> {
     /// Bins the node on every axis with a map and returns its cheapest plane and the bounds
-    /// of that plane's right side (`None` when no plane separates anything).
+    /// of that plane's right side (`None` when no plane separates anything). The bins keep no
+    /// centroid bounds: the partition pass computes the children's.
     fn best_plane(
         &self,
         seg: &[Aabb],
@@ -174,7 +175,7 @@ impl BinnedRule<'_> {
     ) -> Option<(Best, Aabb)> {
         s.bins.resize(3 * k, Bin::EMPTY);
         s.right.resize(k, (0.0, 0));
-        binned::fill(&mut s.bins, k, maps, seg.iter().map(|b| (b, b.centroid())));
+        binned::fill::<false>(&mut s.bins, k, maps, seg.iter().map(|b| (b, b.centroid())));
         let mut best: Option<Best> = None;
         for (a, map) in maps.iter().enumerate() {
             if map.is_none() {
