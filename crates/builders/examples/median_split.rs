@@ -17,8 +17,8 @@ impl Strategy for MedianConfig {
     const NAME: &'static str = "median";
 
     fn check(&self) -> Result<(), BuildError> {
-        let bad = BuildError::InvalidConfig("median: max_leaf_size must be at least 1".into());
-        (self.max_leaf_size > 0).then_some(()).ok_or(bad)
+        let e = || BuildError::InvalidConfig("median: max_leaf_size must be >= 1".into());
+        (self.max_leaf_size > 0).then_some(()).ok_or_else(e)
     }
 
     fn describe(&self) -> String {
