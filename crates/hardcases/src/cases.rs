@@ -707,26 +707,9 @@ fn non_finite_cases(v: &mut Vec<Case>) {
 // ---------------------------------------------------------------------------------------------
 // Procedural scenes
 
-/// A `n × n` grid of primary rays of a camera (square pixels over the vertical field of view).
+/// A `n × n` grid of primary rays of a camera ([`Camera::grid_rays`]).
 pub fn camera_rays(cam: &Camera, n: u32) -> Vec<Ray> {
-    let f = (cam.target - cam.eye).normalize();
-    let r = f.cross(cam.up).normalize_or_zero();
-    let r = if r == Vec3A::ZERO {
-        f.any_orthonormal_vector()
-    } else {
-        r
-    };
-    let u = r.cross(f);
-    let tan = (cam.fov_y_degrees.to_radians() * 0.5).tan();
-    let mut rays = Vec::with_capacity((n * n) as usize);
-    for y in 0..n {
-        for x in 0..n {
-            let sx = (2.0 * (x as f32 + 0.5) / n as f32 - 1.0) * tan;
-            let sy = (1.0 - 2.0 * (y as f32 + 0.5) / n as f32) * tan;
-            rays.push(Ray::new(cam.eye, f + r * sx + u * sy, 0.0, f32::INFINITY));
-        }
-    }
-    rays
+    cam.grid_rays(n)
 }
 
 fn procedural_cases(level: Level, v: &mut Vec<Case>) {

@@ -3,7 +3,7 @@
 //! The cameras of the named scenes are data, not code: the repository's `scenes/cameras.tsv`
 //! (see [`named_cameras`](crate::named_cameras) and [`default_camera`](crate::default_camera)).
 
-use sahara_geom::{Aabb, Vec3A};
+use sahara_geom::{Aabb, Ray, Vec3A};
 
 /// A pinhole camera: where it is, what it looks at, which way is up, and its vertical field
 /// of view. Image size and ray generation belong to the tracer (`sahara-trace`).
@@ -82,6 +82,31 @@ impl Camera {
     /// The unit viewing direction, from `eye` to `target`.
     pub fn direction(&self) -> Vec3A {
         (self.target - self.eye).normalize_or_zero()
+    }
+
+    /// An `n × n` grid of primary rays through pixel centres (square pixels over the vertical
+    /// field of view, row 0 at the top), each `[0, ∞)`: the test suites' and the hard-case
+    /// suite's camera rays. A camera looking along its up vector gets an arbitrary orthonormal
+    /// right vector.
+    pub fn grid_rays(&self, n: u32) -> Vec<Ray> {
+        let f = (self.target - self.eye).normalize();
+        let r = f.cross(self.up).normalize_or_zero();
+        let r = if r == Vec3A::ZERO {
+            f.any_orthonormal_vector()
+        } else {
+            r
+        };
+        let u = r.cross(f);
+        let tan = (self.fov_y_degrees.to_radians() * 0.5).tan();
+        let mut rays = Vec::with_capacity((n * n) as usize);
+        for y in 0..n {
+            for x in 0..n {
+                let sx = (2.0 * (x as f32 + 0.5) / n as f32 - 1.0) * tan;
+                let sy = (1.0 - 2.0 * (y as f32 + 0.5) / n as f32) * tan;
+                rays.push(Ray::new(self.eye, f + r * sx + u * sy, 0.0, f32::INFINITY));
+            }
+        }
+        rays
     }
 }
 
