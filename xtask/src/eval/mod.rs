@@ -8,6 +8,9 @@
 //! relative to the full-sweep SAH tree (and to SBVH for spatial-split builders), in measured
 //! speed and in work per ray; the SAH-EPO predictors are fitted to the measurements.
 
+#[cfg(test)]
+mod browser_test;
+pub mod interval;
 mod plot;
 mod predict;
 mod report;
@@ -26,6 +29,9 @@ pub struct Args {
     /// Small matrix on the built-in procedural scenes (about two minutes on two cores).
     #[arg(long)]
     pub quick: bool,
+    /// The whole matrix: every registered builder, every layout, 1024×768 (over an hour).
+    #[arg(long, conflicts_with = "quick")]
+    pub full: bool,
     /// Scenes (catalog names or paths; default: see `--quick`).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
@@ -44,16 +50,16 @@ pub struct Args {
     /// Rayon threads for building and tracing (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Image width (default 1024, quick 320).
+    /// Image width (default 320, quick 256, full 1024).
     #[arg(long)]
     pub width: Option<u32>,
-    /// Image height (default 768, quick 240).
+    /// Image height (default 240, quick 192, full 768).
     #[arg(long)]
     pub height: Option<u32>,
-    /// Timed trace passes (default 5, quick 3).
+    /// Timed interleaved trace rounds (default 15, quick 11, full 11).
     #[arg(long)]
     pub passes: Option<usize>,
-    /// Timed builds per builder (default 5, quick 3; builds slower than 5 s run once).
+    /// Timed builds per builder (default 3, full 5; builds slower than 1 s run once).
     #[arg(long)]
     pub build_runs: Option<usize>,
     /// Seed of the secondary rays.
@@ -68,6 +74,7 @@ pub struct Args {
 #[derive(Clone, Debug, Serialize)]
 pub struct Settings {
     pub quick: bool,
+    pub full: bool,
     pub scenes: Vec<String>,
     pub builders: Vec<String>,
     pub rays: Vec<String>,
@@ -102,6 +109,11 @@ pub struct SceneInfo {
     /// The work per pixel at the top of every heat map's colour scale (shared by the scene's
     /// trees).
     pub heat_scale: f64,
+    /// Per builder other than sweep: the image of its per-pixel work minus the sweep tree's
+    /// (blue: less work than sweep, red: more).
+    pub diff_maps: Vec<(String, String)>,
+    /// The work difference per pixel at either end of the difference maps' colour scale.
+    pub diff_scale: f64,
 }
 
 /// A trace measurement with its comparisons.
@@ -119,6 +131,13 @@ pub struct TraceRow {
     pub speed_vs_sbvh: Option<f64>,
     /// Work relative to SBVH.
     pub work_vs_sbvh: Option<f64>,
+    /// The seconds of each timed round (the rounds of every tree of the scene are
+    /// interleaved, so round `i` of two rows was taken in the same time window).
+    pub round_seconds: Vec<f64>,
+    /// The 95% interval of `speed_vs_sweep` (median of per-round ratios, bootstrapped).
+    pub speed_vs_sweep_ci: Option<interval::Interval>,
+    /// The 95% interval of `speed_vs_sbvh`.
+    pub speed_vs_sbvh_ci: Option<interval::Interval>,
 }
 
 /// Everything the report is made from (`results.json`).
@@ -160,24 +179,59 @@ fn default_scenes(quick: bool) -> Vec<String> {
     v
 }
 
-/// The quick matrix keeps one preset of each strategy.
-const QUICK_BUILDERS: &[&str] = &[
+/// The default matrix's builders, in report order: the references, the paper's builders,
+/// and the best presets of other work (reinsertion, PLOC). A name joins the run only when the
+/// registry knows it ([`sahara_builders::registry::by_name`]), so presets still under way on
+/// other branches appear by themselves once registered. Chosen to fit 20 minutes on two
+/// cores with the shared scenes (timings in `docs/evaluation.md`).
+pub const DEFAULT_BUILDERS: &[&str] = &[
     "sweep",
     "sbvh",
     "binned",
     "tsah-topk",
-    "tsah-binned",
-    "popov-d2",
     "hybrid",
+    "tsah-sbvh",
+    "ploc",
+    "sweep+reinsert",
+    "sbvh+reinsert",
+    "tsah-topk+reinsert",
+    "ploc+reinsert",
 ];
 
-fn default_builders(quick: bool) -> Vec<String> {
-    sahara_builders::registry::entries()
-        .into_iter()
-        .filter(|e| !e.small_inputs_only)
-        .filter(|e| !quick || QUICK_BUILDERS.contains(&e.name))
-        .map(|e| e.name.to_string())
+/// The quick matrix keeps one preset of each strategy.
+const QUICK_BUILDERS: &[&str] = &["sweep", "sbvh", "binned", "tsah-topk", "hybrid"];
+
+/// The layouts of the default and quick matrices: the binary kernel (the paper's comparison)
+/// and the 8-wide one (the headline: what users run); `--full` traces every layout.
+const DEFAULT_LAYOUTS: &[&str] = &["bvh2", "bvh8", "embree"];
+
+fn default_builders(quick: bool, full: bool) -> Vec<String> {
+    if full {
+        return sahara_builders::registry::entries()
+            .into_iter()
+            .filter(|e| !e.small_inputs_only)
+            .map(|e| e.name.to_string())
+            .collect();
+    }
+    let list = if quick {
+        QUICK_BUILDERS
+    } else {
+        DEFAULT_BUILDERS
+    };
+    list.iter()
+        .filter(|n| sahara_builders::registry::by_name(n).is_some())
+        .map(|n| n.to_string())
         .collect()
+}
+
+/// The layout whose speed the summary reports: `bvh8` when traced, else the first.
+pub fn headline_layout(layouts: &[String]) -> String {
+    layouts
+        .iter()
+        .find(|l| *l == "bvh8")
+        .or(layouts.first())
+        .cloned()
+        .unwrap_or_else(|| "bvh2".into())
 }
 
 /// True when `builder` should be skipped on a scene of `triangles` (only for builders the
@@ -191,9 +245,9 @@ fn impractical(builder: &str, triangles: usize, named: bool) -> bool {
 
 impl Args {
     fn settings(&self) -> Settings {
-        let q = self.quick;
+        let (q, full) = (self.quick, self.full);
         let mut builders = if self.builders.is_empty() {
-            default_builders(q)
+            default_builders(q, full)
         } else {
             self.builders.clone()
         };
@@ -206,6 +260,7 @@ impl Args {
         builders.sort_by_key(|b| (b != REFERENCE, b != SPATIAL_REFERENCE));
         Settings {
             quick: q,
+            full,
             scenes: if self.scenes.is_empty() {
                 default_scenes(q)
             } else {
@@ -214,18 +269,33 @@ impl Args {
             builders,
             rays: self.rays.clone(),
             layouts: if self.layouts.is_empty() {
-                trace_cmd::layouts().iter().map(|s| s.to_string()).collect()
+                trace_cmd::layouts()
+                    .iter()
+                    .filter(|l| full || DEFAULT_LAYOUTS.contains(l))
+                    .map(|s| s.to_string())
+                    .collect()
             } else {
                 self.layouts.clone()
             },
-            width: self.width.unwrap_or(if q { 320 } else { 1024 }),
-            height: self.height.unwrap_or(if q { 240 } else { 768 }),
-            passes: self.passes.unwrap_or(if q { 3 } else { 5 }),
-            build_runs: self.build_runs.unwrap_or(if q { 3 } else { 5 }),
+            width: self.width.unwrap_or(pick(q, full, 256, 320, 1024)),
+            height: self.height.unwrap_or(pick(q, full, 192, 240, 768)),
+            passes: self.passes.unwrap_or(pick(q, full, 11, 15, 11)),
+            build_runs: self.build_runs.unwrap_or(pick(q, full, 3, 3, 5)),
             threads: util::thread_count(self.threads),
             seed: self.seed,
             cost_model: sahara_metrics::CostModel::default(),
         }
+    }
+}
+
+/// The quick, default or full value of a setting.
+fn pick<T>(quick: bool, full: bool, q: T, default: T, f: T) -> T {
+    if quick {
+        q
+    } else if full {
+        f
+    } else {
+        default
     }
 }
 
@@ -294,9 +364,11 @@ pub fn run(a: Args) -> Result<()> {
     let steps = (s.scenes.len() * s.builders.len() * (1 + kinds.len() * s.layouts.len())) as u64;
     let bar = ProgressBar::new(steps);
     bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:30}] {pos}/{len} ETA {eta_precise} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
     );
 
     let catalog = sahara_scene::Catalog::discover();
@@ -327,9 +399,8 @@ pub fn run(a: Args) -> Result<()> {
                 continue;
             }
             status(&bar, format!("{} / build {b}", scene.name));
-            let runs = adaptive_runs(&scene.triangles, b, s.build_runs, a.threads)?;
             let (rep, bvh) =
-                build_and_measure(&scene.name, &scene.triangles, b, a.threads, runs, true)?;
+                build_adaptive(&scene.name, &scene.triangles, b, s.build_runs, a.threads)?;
             bvh.validate(&scene.triangles)
                 .with_context(|| format!("{b} on {}", scene.name))?;
             builds.push(rep);
@@ -362,6 +433,8 @@ pub fn run(a: Args) -> Result<()> {
             render: None,
             heat_maps: Vec::new(),
             heat_scale: 1.0,
+            diff_maps: Vec::new(),
+            diff_scale: 1.0,
         };
         let samples: Vec<(String, Vec<sahara_geom::Ray>)> = sets
             .iter()
@@ -377,6 +450,8 @@ pub fn run(a: Args) -> Result<()> {
         let first_row = traces.len();
         // Per-pixel primary-ray work of each tree, for heat maps on one colour scale.
         let mut heat: Vec<(String, sahara_trace::PixelWork)> = Vec::new();
+        // The same work as raw per-pixel sums, for the difference maps against sweep.
+        let mut pixel_work: Vec<(String, Vec<Option<u64>>)> = Vec::new();
         // Every tracer of the scene: one per layout and tree.
         let tracers: Vec<Vec<Box<dyn sahara_trace::Tracer + '_>>> = s
             .layouts
@@ -394,7 +469,7 @@ pub fn run(a: Args) -> Result<()> {
         // Timings per ray set, layout and tree. The passes of every layout and tree are
         // interleaved (one warm-up round, then `passes` timed rounds), so that the drift of a
         // shared machine hits every engine alike and their ratios come from the same rounds.
-        let mut timings: Vec<Vec<Vec<sahara_trace::Timing>>> = Vec::new();
+        let mut timings: Vec<Vec<Vec<Vec<f64>>>> = Vec::new();
         for set in &sets {
             status(&bar, format!("{} / trace {}", scene.name, set.kind.name()));
             let engines: Vec<&dyn sahara_trace::Tracer> = s
@@ -424,7 +499,8 @@ pub fn run(a: Args) -> Result<()> {
                     sahara_trace::CountedTrace<sahara_trace::TraceResults>,
                 > = None;
                 for (ti, ((b, _), tracer)) in trees.iter().zip(&tracers[li]).enumerate() {
-                    let timing = timings[si][li][if shared { 0 } else { ti }];
+                    let rounds = &timings[si][li][if shared { 0 } else { ti }];
+                    let timing = sahara_trace::Timing::from_samples(rounds);
                     let counted = match &shared_counts {
                         Some(c) => c.clone(),
                         None => util::with_threads(a.threads, || {
@@ -455,6 +531,7 @@ pub fn run(a: Args) -> Result<()> {
                                 &counted.work,
                             ),
                         ));
+                        pixel_work.push((b.clone(), per_pixel_work(set, &counted.work)));
                     }
                     let cm = s.cost_model;
                     traces.push(TraceRow {
@@ -465,6 +542,9 @@ pub fn run(a: Args) -> Result<()> {
                         work_vs_sweep: None,
                         speed_vs_sbvh: None,
                         work_vs_sbvh: None,
+                        round_seconds: rounds.clone(),
+                        speed_vs_sweep_ci: None,
+                        speed_vs_sbvh_ci: None,
                     });
                     bar.inc(1);
                 }
@@ -472,6 +552,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         drop(tracers);
         write_heat_maps(&out, &scene.name, &heat, &mut info)?;
+        write_diff_maps(&out, &scene.name, s.width, s.height, &pixel_work, &mut info)?;
         relate(&mut traces[first_row..]);
         trees_for_predictors.push(predict::SceneTrees {
             scene,
@@ -488,18 +569,20 @@ pub fn run(a: Args) -> Result<()> {
     let scaling = if a.no_scaling {
         Vec::new()
     } else {
-        let sizes: Vec<usize> = if s.quick {
-            vec![1_000, 4_000, 16_000]
-        } else {
-            vec![1_000, 10_000, 100_000, 1_000_000]
-        };
+        let sizes: Vec<usize> = pick(
+            s.quick,
+            s.full,
+            vec![1_000, 4_000, 16_000],
+            vec![1_000, 10_000, 100_000],
+            vec![1_000, 10_000, 100_000, 1_000_000],
+        );
         eprintln!("scaling: build time against N on procedural 'soup' ({sizes:?})");
         crate::scaling::measure(
             &s.builders,
             sahara_scene::Procedural::Soup,
             &sizes,
-            if s.quick { 1 } else { 3 },
-            if s.quick { 5.0 } else { 300.0 },
+            pick(s.quick, s.full, 1, 1, 3),
+            pick(s.quick, s.full, 5.0, 5.0, 300.0),
             a.threads,
             a.builders.is_empty(),
             |b, n, t| eprintln!("  {b:<16} N = {n:>9}: {t:.3} s"),
@@ -535,21 +618,23 @@ pub fn run(a: Args) -> Result<()> {
 fn status(bar: &ProgressBar, msg: String) {
     if bar.is_hidden() {
         eprintln!(
-            "[{:>4}/{}] {msg}",
+            "[{:>4}/{} {:>5.0} s] {msg}",
             bar.position(),
-            bar.length().unwrap_or(0)
+            bar.length().unwrap_or(0),
+            bar.elapsed().as_secs_f64()
         );
     }
     bar.set_message(msg);
 }
 
 /// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds, each round
-/// tracing the whole set once with every tracer in turn.
+/// tracing the whole set once with every tracer in turn; the seconds of every round, per
+/// tracer.
 fn interleaved_timings(
     tracers: &[&dyn sahara_trace::Tracer],
     set: &RaySet,
     passes: usize,
-) -> Vec<sahara_trace::Timing> {
+) -> Vec<Vec<f64>> {
     let mut samples = vec![Vec::with_capacity(passes); tracers.len()];
     for round in 0..=passes.max(1) {
         for (i, t) in tracers.iter().enumerate() {
@@ -561,9 +646,6 @@ fn interleaved_timings(
         }
     }
     samples
-        .iter()
-        .map(|s| sahara_trace::Timing::from_samples(s))
-        .collect()
 }
 
 /// The percentile of per-pixel work that the heat maps' colour scale tops out at.
@@ -621,25 +703,115 @@ fn write_heat_maps(
     Ok(())
 }
 
-/// Builds slower than 5 s are timed once (the report says how many runs each has).
-fn adaptive_runs(
+/// Builds slower than this are timed once (the report says how many runs each has).
+const SLOW_BUILD_MS: f64 = 1000.0;
+
+/// Builds `builder`'s tree and measures it: one timed build, and when it took under
+/// [`SLOW_BUILD_MS`], `runs` timed builds (the median is reported); EPO of the tree.
+fn build_adaptive(
+    scene: &str,
     tris: &[sahara_geom::Triangle],
     builder: &str,
     runs: usize,
     threads: Option<usize>,
-) -> Result<usize> {
-    if tris.len() < 50_000 {
-        return Ok(runs);
+) -> Result<(BuildReport, sahara_bvh::Bvh)> {
+    let (mut rep, bvh) = build_and_measure(scene, tris, builder, threads, 1, false)?;
+    if runs > 1 && rep.build_ms.median < SLOW_BUILD_MS {
+        return build_and_measure(scene, tris, builder, threads, runs, true);
     }
-    let b = util::builder(builder)?;
-    let input = sahara_builders::BuildInput::new(tris, sahara_builders::CostModel::default())?;
-    let (t, r) = util::with_threads(threads, || util::time_runs(1, || b.build(&input)))?;
-    r?;
-    Ok(if t[0] > 5.0 { 1 } else { runs })
+    rep.epo = Some(util::with_threads(threads, || {
+        sahara_metrics::epo(&bvh, tris, &sahara_metrics::CostModel::default())
+    })?);
+    Ok((rep, bvh))
 }
 
-/// Fills the relative columns of one scene's rows.
-fn relate(rows: &mut [TraceRow]) {
+/// Per pixel of `set`'s image, the summed work of its rays (`None` for pixels without a
+/// ray), as [`sahara_trace::PixelWork`] sums it.
+fn per_pixel_work(set: &RaySet, work: &[sahara_trace::WorkCounters]) -> Vec<Option<u64>> {
+    let mut v = vec![None; set.width as usize * set.height as usize];
+    for (&p, w) in set.pixel.iter().zip(work) {
+        if let Some(slot) = v.get_mut(p as usize) {
+            *slot = Some(slot.unwrap_or(0) + sahara_trace::work_total(w));
+        }
+    }
+    v
+}
+
+/// The diverging colour of `x` in `[-1, 1]` (clamped; NaN as 0): blue for negative (less
+/// work than sweep), near-white at 0, red for positive (ColorBrewer RdBu ends).
+pub fn diverging(x: f64) -> [u8; 3] {
+    const BLUE: [f64; 3] = [33.0, 102.0, 172.0];
+    const MID: [f64; 3] = [247.0, 247.0, 247.0];
+    const RED: [f64; 3] = [178.0, 24.0, 43.0];
+    let x = if x.is_nan() { 0.0 } else { x.clamp(-1.0, 1.0) };
+    let (end, t) = if x < 0.0 { (BLUE, -x) } else { (RED, x) };
+    std::array::from_fn(|c| (MID[c] + (end[c] - MID[c]) * t + 0.5) as u8)
+}
+
+/// One image per tree other than sweep: its per-pixel work minus the sweep tree's, coloured
+/// by [`diverging`] on one symmetric scale for the scene (the largest of the trees'
+/// [`HEAT_PERCENTILE`]-th percentiles of the absolute difference, at least 1). Pixels without
+/// a ray are black.
+fn write_diff_maps(
+    out: &Path,
+    scene: &str,
+    width: u32,
+    height: u32,
+    work: &[(String, Vec<Option<u64>>)],
+    info: &mut SceneInfo,
+) -> Result<()> {
+    let Some((_, reference)) = work.iter().find(|(b, _)| b == REFERENCE) else {
+        return Ok(());
+    };
+    let diffs: Vec<(&String, Vec<Option<f64>>)> = work
+        .iter()
+        .filter(|(b, _)| b != REFERENCE)
+        .map(|(b, w)| {
+            let d = w
+                .iter()
+                .zip(reference)
+                .map(|(x, r)| {
+                    Some(x.unwrap_or(0) as f64 - r.unwrap_or(0) as f64)
+                        .filter(|_| x.is_some() || r.is_some())
+                })
+                .collect();
+            (b, d)
+        })
+        .collect();
+    let scale = diffs
+        .iter()
+        .map(|(_, d)| {
+            let mut a: Vec<f64> = d.iter().flatten().map(|x| x.abs()).collect();
+            a.sort_by(f64::total_cmp);
+            let rank = ((HEAT_PERCENTILE / 100.0) * a.len() as f64).ceil() as usize;
+            a.get(rank.clamp(1, a.len().max(1)) - 1)
+                .copied()
+                .unwrap_or(0.0)
+        })
+        .fold(1.0, f64::max);
+    for (builder, d) in diffs {
+        let mut image = sahara_trace::RgbImage::new(width, height);
+        for (i, v) in d.iter().enumerate() {
+            if let Some(v) = v {
+                image.set(i, diverging(v / scale));
+            }
+        }
+        let path = format!(
+            "images/{}-{}-diff.png",
+            file_stem(scene),
+            file_stem(builder)
+        );
+        image.write_png(out.join(&path))?;
+        info.diff_maps.push((builder.clone(), path));
+    }
+    info.diff_scale = scale;
+    Ok(())
+}
+
+/// Fills the relative columns of one scene's rows: work ratios, and speed ratios with their
+/// intervals from the per-round ratios against the reference's rows of the same layout and
+/// rays (the median of the throughput ratio when rounds are missing).
+pub(crate) fn relate(rows: &mut [TraceRow]) {
     let find = |rows: &[TraceRow], b: &str, r: &TraceRow| {
         rows.iter()
             .find(|x| {
@@ -647,17 +819,28 @@ fn relate(rows: &mut [TraceRow]) {
                     && x.report.layout == r.report.layout
                     && x.report.ray_kind == r.report.ray_kind
             })
-            .map(|x| (x.report.mrays_s.median, x.work_cost))
+            .map(|x| {
+                (
+                    x.report.mrays_s.median,
+                    x.work_cost,
+                    x.round_seconds.clone(),
+                )
+            })
     };
     let snapshot: Vec<TraceRow> = rows.to_vec();
     for r in rows.iter_mut() {
-        if let Some((speed, work)) = find(&snapshot, REFERENCE, r) {
-            r.speed_vs_sweep = Some(r.report.mrays_s.median / speed);
-            r.work_vs_sweep = Some(work / r.work_cost);
+        let speed = |r: &TraceRow, (mrays, _, rounds): &(f64, f64, Vec<f64>)| {
+            let ci = interval::median_interval(&interval::round_ratios(rounds, &r.round_seconds));
+            let point = ci.map_or(r.report.mrays_s.median / mrays, |i| i.estimate);
+            (Some(point), ci)
+        };
+        if let Some(reference) = find(&snapshot, REFERENCE, r) {
+            (r.speed_vs_sweep, r.speed_vs_sweep_ci) = speed(r, &reference);
+            r.work_vs_sweep = Some(reference.1 / r.work_cost);
         }
-        if let Some((speed, work)) = find(&snapshot, SPATIAL_REFERENCE, r) {
-            r.speed_vs_sbvh = Some(r.report.mrays_s.median / speed);
-            r.work_vs_sbvh = Some(work / r.work_cost);
+        if let Some(reference) = find(&snapshot, SPATIAL_REFERENCE, r) {
+            (r.speed_vs_sbvh, r.speed_vs_sbvh_ci) = speed(r, &reference);
+            r.work_vs_sbvh = Some(reference.1 / r.work_cost);
         }
     }
 }

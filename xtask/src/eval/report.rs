@@ -4,8 +4,9 @@
 //! The report is a list of [`Block`]s, rendered once as Markdown and once as HTML. Each section
 //! is one function appending its blocks to a [`Doc`]; [`report`] calls them in order.
 
+use super::interval::{self, Interval};
 use super::plot::{esc, fmt_num, Plot, Point};
-use super::{Results, TraceRow, REFERENCE};
+use super::{Results, TraceRow, REFERENCE, SPATIAL_REFERENCE};
 use anyhow::Result;
 use base64::Engine;
 use std::collections::BTreeMap;
@@ -28,38 +29,177 @@ pub fn write_all(dir: &Path, r: &Results) -> Result<()> {
     Ok(())
 }
 
-/// The report: its sections in order.
+/// The report: its sections in order, the answer first (summary, the speed-against-error
+/// plot, the images per scene), the tables after.
 fn report(c: &Ctx) -> Doc {
     let mut d = Doc::default();
-    run_notes(&mut d, c);
+    title(&mut d, c);
+    summary(&mut d, c);
+    // Hook: the paper's claims table goes here, from the study's saved run, once that study
+    // exists (it is not recomputed by the eval).
+    speed_against_error(&mut d, c);
+    heat_maps(&mut d, c);
+    d.h(2, "Tables");
     sweep_tables(&mut d, c);
     sbvh_table(&mut d, c);
     scene_tables(&mut d, c);
-    speed_against_error(&mut d, c);
     predictors(&mut d, c);
     scaling(&mut d, c);
-    heat_maps(&mut d, c);
+    run_notes(&mut d, c);
     d
 }
 
 // ---------------------------------------------------------------------------------------
 // Sections.
 
-/// Title and protocol: machine, commit, cost model, image size, passes and runs, seed; what
-/// the ratios mean; the builders left out as impractical.
-fn run_notes(d: &mut Doc, c: &Ctx) {
+/// The title and one line on the run: when, where, how long, which matrix.
+fn title(d: &mut Doc, c: &Ctx) {
     let (r, s) = (c.r, &c.r.meta.settings);
     d.h(1, "sahara evaluation");
     d.p(format!(
-        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all. Cost model c_t = {}, c_i = {}. \
-         Images {}×{}; each trace is the median of {} passes after one warm-up pass (spread given as min–max); \
-         each build the median of up to {} runs (builds over 5 s on large scenes run once). Secondary-ray seed {}.{}",
+        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all: {} scenes, {} builders, {}×{} pixels, {} interleaved rounds.{}",
         r.meta.date,
         r.meta.commit,
         r.meta.cpu,
         s.threads,
         r.meta.simd,
         r.meta.seconds,
+        r.scenes.len(),
+        s.builders.len(),
+        s.width,
+        s.height,
+        s.passes,
+        if s.quick {
+            " This is the **--quick** matrix."
+        } else if s.full {
+            " This is the **--full** matrix."
+        } else {
+            ""
+        }
+    ));
+}
+
+/// The answer: per ray type, the builder with the least work per ray (geometric mean over
+/// scenes, headline layout), its work and speed against sweep and SBVH with 95% intervals,
+/// and its build time relative to sweep; then the predictors' errors in one line.
+fn summary(d: &mut Doc, c: &Ctx) {
+    d.h(2, "Summary");
+    d.p(format!(
+        "Per ray type, the builder whose trees take the least work per ray ({} layout, geometric mean over scenes). \
+         Work > 1: less work than the reference (noise-free). Speed > 1: faster, with its 95% interval; \
+         {MARK} marks a speed whose interval contains 1 (not told apart from the reference). \
+         Build: build time relative to sweep.",
+        c.layout0
+    ));
+    let mut rows = Vec::new();
+    for kind in &c.kinds {
+        let best = c
+            .builders
+            .iter()
+            .filter_map(|&b| {
+                let w = c.mean_ratio(b, kind, |t| t.work_vs_sweep)?;
+                Some((b, w))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((b, _)) = best else { continue };
+        rows.push(vec![
+            kind.to_string(),
+            format!("**{b}**"),
+            ratio(c.mean_ratio(b, kind, |t| t.work_vs_sweep)),
+            or_none(c.mean_speed(b, kind, REFERENCE), speed_cell),
+            ratio(c.mean_ratio(b, kind, |t| t.work_vs_sbvh)),
+            or_none(c.mean_speed(b, kind, SPATIAL_REFERENCE), speed_cell),
+            or_none(build_factor(c, b), |f| format!("{f:.1}×")),
+        ]);
+    }
+    d.table(
+        [
+            "rays",
+            "best builder",
+            "work vs sweep",
+            "speed vs sweep [95%]",
+            "work vs sbvh",
+            "speed vs sbvh [95%]",
+            "build vs sweep",
+        ],
+        rows,
+    );
+    let line: Vec<String> = distinct(
+        c.r.predictors
+            .iter()
+            .filter(|p| p.target.starts_with("time"))
+            .map(|p| p.predictor.as_str()),
+    )
+    .into_iter()
+    .map(|name| {
+        let errs: Vec<String> =
+            c.r.predictors
+                .iter()
+                .filter(|p| p.predictor == name && p.target.starts_with("time"))
+                .map(|p| {
+                    format!(
+                        "{} {}",
+                        p.ray_kind,
+                        or_none(
+                            p.report.as_ref().map(|x| x.mean_relative_error),
+                            |e| format!("{:.1}%", 100.0 * e)
+                        )
+                    )
+                })
+                .collect();
+        format!("{name}: {}", errs.join(", "))
+    })
+    .collect();
+    if !line.is_empty() {
+        d.p(format!(
+            "Predictors' mean error against measured trace time: {}.",
+            line.join("; ")
+        ));
+    }
+}
+
+/// What a speed ratio's cell shows when its interval contains 1.
+const MARK: &str = "≈";
+
+/// A speed ratio with its interval, marked with [`MARK`] when the interval contains 1:
+/// `≈1.012 [0.981–1.043]`.
+fn speed_cell(i: Interval) -> String {
+    format!(
+        "{}{:.3} [{:.3}–{:.3}]",
+        if i.contains_one() { MARK } else { "" },
+        i.estimate,
+        i.low,
+        i.high
+    )
+}
+
+/// `builder`'s build time relative to sweep: geometric mean over scenes.
+fn build_factor(c: &Ctx, builder: &str) -> Option<f64> {
+    let v: Vec<f64> =
+        c.r.scenes
+            .iter()
+            .filter_map(|sc| {
+                let t = |b: &str| {
+                    c.r.builds
+                        .iter()
+                        .find(|x| x.scene == sc.name && x.builder == b)
+                        .map(|x| x.build_ms.median)
+                };
+                Some(t(builder)? / t(REFERENCE)?)
+            })
+            .collect();
+    geomean(&v)
+}
+
+/// The protocol: cost model, image size, rounds and runs, seed; what the ratios and their
+/// intervals mean; the builders left out as impractical.
+fn run_notes(d: &mut Doc, c: &Ctx) {
+    let (r, s) = (c.r, &c.r.meta.settings);
+    d.h(2, "How these numbers were taken");
+    d.p(format!(
+        "Cost model c_t = {}, c_i = {}. Images {}×{}; every tree and layout of a scene traces each ray set once per round, \
+         in turn, for {} timed rounds after one warm-up round; Mrays/s are the median with min–max. \
+         Each build is the median of up to {} runs (builds over 1 s run once). Secondary-ray seed {}.",
         s.cost_model.traversal,
         s.cost_model.intersection,
         s.width,
@@ -67,11 +207,15 @@ fn run_notes(d: &mut Doc, c: &Ctx) {
         s.passes,
         s.build_runs,
         s.seed,
-        if s.quick { " This is the **--quick** matrix." } else { "" }
     ));
-    d.p("Speed ratios are taken within one run on the same rays: > 1 means faster than the reference tree. \
-         Work ratios compare the work per ray in SAH units (c_t · inner nodes visited + c_i · triangles tested), \
-         which machine noise cannot touch: > 1 means less work than the reference.");
+    d.p(format!(
+        "A speed ratio is the median over rounds of the per-round ratio of trace times (reference / this tree, taken in the same round), \
+         > 1 meaning faster than the reference; its 95% interval is a percentile bootstrap of that median ({} resamples, fixed seed), \
+         and averages over scenes are geometric means of the scenes' medians with a bootstrap that resamples each scene's rounds. \
+         {MARK} marks ratios whose interval contains 1. Work ratios compare the work per ray in SAH units \
+         (c_t · inner nodes visited + c_i · triangles tested), which machine noise cannot touch: > 1 means less work than the reference.",
+        interval::RESAMPLES
+    ));
     if !r.skipped.is_empty() {
         d.p(format!(
             "Left out as impractical at this size (minutes per build on two cores): {}.",
@@ -93,17 +237,11 @@ fn sweep_tables(d: &mut Doc, c: &Ctx) {
     for kind in &c.kinds {
         d.h(3, format!("{kind} rays: speed (work) relative to sweep"));
         let mut rows = Vec::new();
-        let mut per_builder: BTreeMap<&str, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
         for sc in &c.r.scenes {
             let mut row = vec![sc.name.clone()];
             for &b in &c.builders {
                 row.push(match c.trace(&sc.name, b, kind) {
-                    Some(t) => {
-                        let e = per_builder.entry(b).or_default();
-                        e.0.extend(t.speed_vs_sweep);
-                        e.1.extend(t.work_vs_sweep);
-                        speed_work(t.speed_vs_sweep, t.work_vs_sweep)
-                    }
+                    Some(t) => speed_work(t.speed_vs_sweep, t.speed_vs_sweep_ci, t.work_vs_sweep),
                     None => NONE.into(),
                 });
             }
@@ -111,8 +249,12 @@ fn sweep_tables(d: &mut Doc, c: &Ctx) {
         }
         let mut mean = vec!["**geometric mean**".to_string()];
         for b in &c.builders {
-            let (speed, work) = per_builder.get(b).cloned().unwrap_or_default();
-            mean.push(speed_work(geomean(&speed), geomean(&work)));
+            let speed = c.mean_speed(b, kind, REFERENCE);
+            mean.push(speed_work(
+                speed.map(|i| i.estimate),
+                speed,
+                c.mean_ratio(b, kind, |t| t.work_vs_sweep),
+            ));
         }
         rows.push(mean);
         d.table(column_heads("scene", &c.builders), rows);
@@ -144,10 +286,9 @@ fn sbvh_table(d: &mut Doc, c: &Ctx) {
         for kind in &c.kinds {
             let mut row = vec![format!("{} / {kind}", sc.name)];
             for b in &spatial {
-                row.push(
-                    c.trace(&sc.name, b, kind)
-                        .map_or(NONE.into(), |t| speed_work(t.speed_vs_sbvh, t.work_vs_sbvh)),
-                );
+                row.push(c.trace(&sc.name, b, kind).map_or(NONE.into(), |t| {
+                    speed_work(t.speed_vs_sbvh, t.speed_vs_sbvh_ci, t.work_vs_sbvh)
+                }));
             }
             rows.push(row);
         }
@@ -193,7 +334,7 @@ fn scene_tables(d: &mut Doc, c: &Ctx) {
             [
                 "builder / layout / rays",
                 "Mrays/s median [min–max]",
-                "speed vs sweep",
+                "speed vs sweep [95%]",
                 "inner/ray",
                 "leaves/ray",
                 "tris/ray",
@@ -208,7 +349,7 @@ fn scene_tables(d: &mut Doc, c: &Ctx) {
                     vec![
                         format!("{} / {} / {}", x.builder, x.layout, x.ray_kind),
                         spread(x.mrays_s.median, x.mrays_s.min, x.mrays_s.max, f2),
-                        ratio(t.speed_vs_sweep),
+                        speed_or_interval(t.speed_vs_sweep, t.speed_vs_sweep_ci),
                         f2(x.inner_per_ray),
                         f2(x.leaves_per_ray),
                         f2(x.triangles_per_ray),
@@ -227,7 +368,7 @@ fn scene_tables(d: &mut Doc, c: &Ctx) {
 fn speed_against_error(d: &mut Doc, c: &Ctx) {
     d.h(2, "Build time against trace cost (speed against error)");
     d.p("Each point is a builder: x = build time relative to sweep (geometric mean over scenes), \
-         y = trace time relative to sweep (geometric mean over scenes and ray types, first layout). \
+         y = trace time relative to sweep (geometric mean over scenes and ray types, headline layout). \
          The dashed line joins the Pareto front: no other builder is both faster to build and faster to trace.");
     let plot = Plot {
         title: "Build time against trace time (relative to sweep)".into(),
@@ -360,19 +501,24 @@ fn scaling(d: &mut Doc, c: &Ctx) {
     d.svg("plots/scaling.svg", "build time against N", plot);
 }
 
-/// Per scene: its render and every tree's heat map of primary-ray work, on the scene's shared
-/// colour scale.
+/// Per scene, a grid: its render and every tree's heat map of primary-ray work side by side
+/// (the scene's shared colour scale), then each tree's difference map against sweep.
 fn heat_maps(d: &mut Doc, c: &Ctx) {
-    d.h(2, "Renders and work heat maps (primary rays)");
+    d.h(
+        2,
+        "Scenes: render, work heat maps and difference against sweep (primary rays)",
+    );
     d.p(format!(
-        "Heat maps show inner nodes + leaves + triangles visited per pixel (bvh2 layout). All heat maps of a scene share one colour scale (viridis, dark = little work), topping out at the largest of the trees' {:.0}th percentiles of per-pixel work, so the same colour means the same work in every image of the scene.",
+        "Heat maps show inner nodes + leaves + triangles visited per pixel (bvh2 layout: the binary tree). All heat maps of a scene share one colour scale (viridis, dark = little work), topping out at the largest of the trees' {:.0}th percentiles of per-pixel work, so the same colour means the same work in every image of the scene. \
+         Difference maps show a tree's per-pixel work minus the sweep tree's on a diverging scale: **blue where the tree saves work**, red where it costs more, white where they agree; the scale's ends are the largest of the trees' {:.0}th percentiles of the absolute difference.",
+        super::HEAT_PERCENTILE,
         super::HEAT_PERCENTILE
     ));
     for sc in &c.r.scenes {
         d.h(3, sc.name.clone());
         d.p(format!(
-            "Top of the colour scale: {:.0} work units per pixel.",
-            sc.heat_scale
+            "Top of the heat maps' colour scale: {:.0} work units per pixel; difference maps: ±{:.0}.",
+            sc.heat_scale, sc.diff_scale
         ));
         let render = sc
             .render
@@ -383,6 +529,14 @@ fn heat_maps(d: &mut Doc, c: &Ctx) {
             .iter()
             .map(|(b, p)| (p.clone(), format!("{b} heat map")));
         d.gallery(render.chain(heat).collect());
+        if !sc.diff_maps.is_empty() {
+            d.gallery(
+                sc.diff_maps
+                    .iter()
+                    .map(|(b, p)| (p.clone(), format!("{b} − sweep")))
+                    .collect(),
+            );
+        }
     }
 }
 
@@ -392,7 +546,7 @@ fn heat_maps(d: &mut Doc, c: &Ctx) {
 /// What every section reads: the results, and what is chosen from them once.
 struct Ctx<'a> {
     r: &'a Results,
-    /// The layout of the summary tables and plots: the first one traced.
+    /// The layout of the summary tables and plots: `bvh8` when traced, else the first.
     layout0: String,
     /// The builders, in the order of the settings.
     builders: Vec<&'a str>,
@@ -405,13 +559,13 @@ impl<'a> Ctx<'a> {
         let s = &r.meta.settings;
         Ctx {
             r,
-            layout0: s.layouts.first().cloned().unwrap_or_else(|| "bvh2".into()),
+            layout0: super::headline_layout(&s.layouts),
             builders: s.builders.iter().map(String::as_str).collect(),
             kinds: distinct(r.traces.iter().map(|t| t.report.ray_kind.as_str())),
         }
     }
 
-    /// The trace of `builder`'s tree on `scene` with `kind` rays, in the first layout.
+    /// The trace of `builder`'s tree on `scene` with `kind` rays, in the headline layout.
     fn trace(&self, scene: &str, builder: &str, kind: &str) -> Option<&'a TraceRow> {
         self.r.traces.iter().find(|t| {
             t.report.scene == scene
@@ -419,6 +573,42 @@ impl<'a> Ctx<'a> {
                 && t.report.layout == self.layout0
                 && t.report.ray_kind == kind
         })
+    }
+
+    /// The geometric mean over scenes of `f` of `builder`'s `kind` traces (headline layout).
+    fn mean_ratio(
+        &self,
+        builder: &str,
+        kind: &str,
+        f: impl Fn(&TraceRow) -> Option<f64>,
+    ) -> Option<f64> {
+        let v: Vec<f64> = self
+            .r
+            .scenes
+            .iter()
+            .filter_map(|sc| f(self.trace(&sc.name, builder, kind)?))
+            .collect();
+        geomean(&v)
+    }
+
+    /// `builder`'s speed relative to `reference` on `kind` rays over all scenes (headline
+    /// layout): geometric mean of the scenes' median per-round ratios, with its stratified
+    /// bootstrap interval.
+    fn mean_speed(&self, builder: &str, kind: &str, reference: &str) -> Option<Interval> {
+        let groups: Vec<Vec<f64>> = self
+            .r
+            .scenes
+            .iter()
+            .filter_map(|sc| {
+                let this = self.trace(&sc.name, builder, kind)?;
+                let rf = self.trace(&sc.name, reference, kind)?;
+                Some(interval::round_ratios(
+                    &rf.round_seconds,
+                    &this.round_seconds,
+                ))
+            })
+            .collect();
+        interval::geomean_of_medians_interval(&groups)
     }
 }
 
@@ -496,9 +686,15 @@ fn ratio(x: Option<f64>) -> String {
     or_none(x, |v| format!("{v:.3}"))
 }
 
-/// A speed ratio with its work ratio in parentheses: `1.020 (0.980)`.
-fn speed_work(speed: Option<f64>, work: Option<f64>) -> String {
-    format!("{} ({})", ratio(speed), ratio(work))
+/// A speed ratio (with its interval when known) and its work ratio in parentheses:
+/// `1.020 [1.010–1.031] (0.980)`.
+fn speed_work(speed: Option<f64>, ci: Option<Interval>, work: Option<f64>) -> String {
+    format!("{} ({})", speed_or_interval(speed, ci), ratio(work))
+}
+
+/// The speed ratio's cell: with its interval when known ([`speed_cell`]), else the ratio.
+fn speed_or_interval(speed: Option<f64>, ci: Option<Interval>) -> String {
+    ci.map_or_else(|| ratio(speed), speed_cell)
 }
 
 /// A median with its range: `12.00 [9.60–13.20]`.
@@ -599,7 +795,7 @@ th:first-child,td:first-child{text-align:left}
 th{background:#f3f3f3}
 img{max-width:100%;image-rendering:pixelated;border:1px solid #ddd}
 .gallery{display:flex;flex-wrap:wrap;gap:10px}
-.gallery figure{margin:0;width:300px}
+.gallery figure{margin:0;width:230px}
 figcaption{font-size:12px;text-align:center}
 code{background:#f5f5f5;padding:1px 3px}
 </style></head><body>
@@ -797,7 +993,7 @@ mod tests {
 
     const BUILDERS: [&str; 4] = ["sweep", "sbvh", "binned", "tsah-sbvh"];
     const KINDS: [&str; 2] = ["primary", "ao"];
-    const LAYOUTS: [&str; 2] = ["bvh2", "bvh4"];
+    const LAYOUTS: [&str; 2] = ["bvh2", "bvh8"];
 
     fn timed(median: f64) -> Spread {
         Spread {
@@ -814,6 +1010,7 @@ mod tests {
     fn results() -> Results {
         let settings = Settings {
             quick: true,
+            full: false,
             scenes: vec!["cube".into(), "a<b> & c".into()],
             builders: BUILDERS.map(String::from).to_vec(),
             rays: KINDS.map(String::from).to_vec(),
@@ -844,6 +1041,12 @@ mod tests {
                     })
                     .collect(),
                 heat_scale: 40.0 + 7.5 * i as f64,
+                diff_maps: if i == 0 {
+                    vec![("sbvh".to_string(), "images/cube-sbvh-diff.png".to_string())]
+                } else {
+                    Vec::new()
+                },
+                diff_scale: 12.0 + i as f64,
             })
             .collect();
         let mut builds = Vec::new();
@@ -907,6 +1110,12 @@ mod tests {
                             hits: 700 - 100 * ki,
                             checksum: format!("{:016x}", 0x5eed + 31 * traces.len()),
                         };
+                        // Seven rounds; the tsah-sbvh rows swing about the sweep ones (their
+                        // interval contains 1), the others differ steadily.
+                        let wobble = |k: usize| match *b {
+                            "tsah-sbvh" => 0.85 + 0.05 * ((k * 3) % 7) as f64,
+                            _ => 1.0 + 0.01 * ((k * 5 + bi) % 7) as f64,
+                        };
                         traces.push(TraceRow {
                             work_cost: 8.0 * g + 5.0 * g * (1.0 + 0.0625 * bi as f64),
                             report: rep,
@@ -914,6 +1123,9 @@ mod tests {
                             work_vs_sweep: None,
                             speed_vs_sbvh: None,
                             work_vs_sbvh: None,
+                            round_seconds: (0..7).map(|k| 0.064 * g * wobble(k)).collect(),
+                            speed_vs_sweep_ci: None,
+                            speed_vs_sbvh_ci: None,
                         });
                     }
                 }
@@ -1052,6 +1264,7 @@ mod tests {
         std::fs::write(dir.join("images/cube-render.png"), b"render").unwrap();
         std::fs::write(dir.join("images/cube-sweep-heat.png"), b"heat\x00sweep").unwrap();
         std::fs::write(dir.join("images/cube-sbvh-heat.png"), b"heat\xffsbvh").unwrap();
+        std::fs::write(dir.join("images/cube-sbvh-diff.png"), b"diff").unwrap();
         std::fs::write(dir.join("images/a_b____c-sweep-heat.png"), b"h").unwrap();
         write_all(&dir, &results()).unwrap();
         let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
