@@ -249,7 +249,7 @@ pub fn registry_entries() -> Vec<Entry> {
             spatial: true,
             small_inputs_only: false,
             max_practical_triangles: None,
-            make: || Box::new(SbvhBuilder::new(SbvhConfig::REFINED)),
+            make: || Box::new(SbvhBuilder::named("sbvh-refined", SbvhConfig::REFINED)),
         },
     ]
 }
