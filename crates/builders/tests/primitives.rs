@@ -100,7 +100,7 @@ fn spatial_splits_cut_user_primitives() {
         .unwrap()
         .with_splitter(&cut);
     let plain = BuildInput::from_boxes(&boxes, CostModel::default()).unwrap();
-    for name in ["sbvh", "tsah-sbvh"] {
+    for name in ["sbvh", "sbvh-refined", "tsah-sbvh"] {
         let b = registry::by_name(name).unwrap();
         let t = b.build(&input).unwrap();
         t.validate_structure().unwrap();

@@ -54,6 +54,13 @@ fn configs() -> Vec<SbvhConfig> {
     vec![
         SbvhConfig::DEFAULT,
         SbvhConfig::FAST,
+        SbvhConfig::REFINED,
+        SbvhConfig {
+            coarse_spatial_bins: 2,
+            spatial_bins: 5,
+            max_leaf_size: 1,
+            ..SbvhConfig::DEFAULT
+        },
         SbvhConfig {
             unsplitting: false,
             ..SbvhConfig::DEFAULT
@@ -108,6 +115,9 @@ fn sah_below_binned_where_spatial_splits_help() {
         );
         let sbvh = sah(&build_with(&tris, SbvhConfig::DEFAULT, cost), &cost);
         assert!(sbvh < 0.8 * binned, "sbvh {sbvh} vs binned {binned}");
+        // The coarse-to-fine search finds planes as good as the full one here.
+        let refined = sah(&build_with(&tris, SbvhConfig::REFINED, cost), &cost);
+        assert!(refined <= 1.01 * sbvh, "refined {refined} vs sbvh {sbvh}");
     }
 }
 

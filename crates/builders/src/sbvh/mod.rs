@@ -74,6 +74,14 @@ pub struct SbvhConfig {
     /// Equal-width bins per axis for the spatial split search. Default 128. Values below 2
     /// disable spatial splits (the builder then is a plain sweep SAH builder).
     pub spatial_bins: usize,
+    /// When at least 2 and below `spatial_bins`, the best spatial split is searched coarse
+    /// to fine ([`crate::split::spatial::refined_spatial_search`]): this many bins per axis
+    /// first, then bins of the resolution of `spatial_bins` around each axis's two best
+    /// coarse planes. About 2-2.5x faster builds for a SAH within about ±0.5% of the full
+    /// search (sometimes lower, sometimes higher: see `docs/builders-classic.md`). `0` (the
+    /// default) bins all `spatial_bins` at once (Stich et al.'s search).
+    #[serde(default)]
+    pub coarse_spatial_bins: usize,
     /// Spatial splits are searched only where the two sides of the best object split overlap
     /// by more than `alpha` times the surface area of the root. Default `1e-5`.
     pub alpha: f32,
@@ -104,6 +112,7 @@ impl SbvhConfig {
     /// spatial splits down to depth 48, up to 2× references, leaves of at most 8.
     pub const DEFAULT: SbvhConfig = SbvhConfig {
         spatial_bins: 128,
+        coarse_spatial_bins: 0,
         alpha: 1e-5,
         max_spatial_depth: 48,
         duplication_budget: 1.0,
@@ -111,6 +120,13 @@ impl SbvhConfig {
         object_split: ObjectSplitMethod::Sweep,
         unsplitting: true,
         fallback_depth: 96,
+    };
+    /// The default with the spatial splits searched coarse to fine: 16 bins per axis, refined
+    /// to the resolution of 128 around each axis's two best coarse planes (registered as
+    /// `sbvh-refined`).
+    pub const REFINED: SbvhConfig = SbvhConfig {
+        coarse_spatial_bins: 16,
+        ..Self::DEFAULT
     };
     /// A faster preset: object splits by 32 centroid bins, 32 spatial bins.
     pub const FAST: SbvhConfig = SbvhConfig {
@@ -158,10 +174,17 @@ impl Strategy for SbvhConfig {
             ObjectSplitMethod::Sweep => "full-sweep object splits".to_string(),
             ObjectSplitMethod::Binned { bins } => format!("{bins}-bin object splits"),
         };
+        let spatial = if c.coarse_spatial_bins >= 2 && c.coarse_spatial_bins < c.spatial_bins {
+            format!(
+                "{} coarse spatial bins refined to {}",
+                c.coarse_spatial_bins, c.spatial_bins
+            )
+        } else {
+            format!("{} spatial bins", c.spatial_bins)
+        };
         format!(
-            "SBVH (Stich et al. 2009): {object}, {} spatial bins, alpha {:e}, spatial depth < {}, \
+            "SBVH (Stich et al. 2009): {object}, {spatial}, alpha {:e}, spatial depth < {}, \
              budget {}x extra refs, unsplitting {}, leaves <= {}",
-            c.spatial_bins,
             c.alpha,
             c.max_spatial_depth,
             c.duplication_budget,
@@ -209,14 +232,24 @@ pub fn sbvh_cost_only(input: &BuildInput, prims: &[u32], config: &SbvhConfig) ->
     topdown::cost(&SbvhRule(ctx), root, &input.cost, &mut Default::default()).cost
 }
 
-/// Registry entries of this module: `sbvh`.
+/// Registry entries of this module: `sbvh` and `sbvh-refined`.
 pub fn registry_entries() -> Vec<Entry> {
-    vec![Entry {
-        name: "sbvh",
-        summary: "SBVH (Stich et al. 2009): full-sweep object splits + 128-bin spatial splits",
-        spatial: true,
-        small_inputs_only: false,
-        max_practical_triangles: None,
-        make: || Box::new(SbvhBuilder::new(SbvhConfig::DEFAULT)),
-    }]
+    vec![
+        Entry {
+            name: "sbvh",
+            summary: "SBVH (Stich et al. 2009): full-sweep object splits + 128-bin spatial splits",
+            spatial: true,
+            small_inputs_only: false,
+            max_practical_triangles: None,
+            make: || Box::new(SbvhBuilder::new(SbvhConfig::DEFAULT)),
+        },
+        Entry {
+            name: "sbvh-refined",
+            summary: "SBVH with spatial splits searched coarse to fine (16 bins refined to 128)",
+            spatial: true,
+            small_inputs_only: false,
+            max_practical_triangles: None,
+            make: || Box::new(SbvhBuilder::named("sbvh-refined", SbvhConfig::REFINED)),
+        },
+    ]
 }

@@ -11,7 +11,9 @@ use crate::split::object::{
     apply_object, bin_objects, median_split, refs_bounds, sweep_objects, ObjectCand, ObjectScratch,
     ObjectSearch, Ref,
 };
-use crate::split::spatial::{apply_spatial, child_budgets, spatial_search, Clipper, SpatialCand};
+use crate::split::spatial::{
+    apply_spatial, child_budgets, refined_spatial_search, spatial_search, Clipper, SpatialCand,
+};
 use crate::topdown::{Step, TopDown};
 use crate::BuildInput;
 
@@ -85,7 +87,9 @@ impl<'a> Ctx<'a> {
         sweep_objects(refs, area, k, &self.cost, scratch)
     }
 
-    /// The `k` best spatial splits of a node whose duplication fits in `budget`.
+    /// The `k` best spatial splits of a node whose duplication fits in `budget`. The best one
+    /// alone (`k == 1`) is searched coarse to fine when the configuration asks for it
+    /// ([`SbvhConfig::coarse_spatial_bins`]).
     pub fn spatial_search(
         &self,
         refs: &[Ref],
@@ -94,19 +98,16 @@ impl<'a> Ctx<'a> {
         k: usize,
         budget: usize,
     ) -> Vec<SpatialCand> {
-        match &self.clipper {
-            Some(c) => spatial_search(
-                c,
-                refs,
-                bounds,
-                area,
-                k,
-                budget,
-                self.cfg.spatial_bins,
-                &self.cost,
-            ),
-            None => Vec::new(),
+        let Some(c) = &self.clipper else {
+            return Vec::new();
+        };
+        let (fine, coarse) = (self.cfg.spatial_bins, self.cfg.coarse_spatial_bins);
+        if k == 1 && coarse >= 2 && coarse < fine {
+            return refined_spatial_search(c, refs, bounds, area, budget, coarse, fine, &self.cost)
+                .into_iter()
+                .collect();
         }
+        spatial_search(c, refs, bounds, area, k, budget, fine, &self.cost)
     }
 
     /// The two sides of a spatial split (see [`apply_spatial`]).

@@ -210,14 +210,146 @@ fn spatial_axis(
     let Some(map) = BinMap::new(bounds.min[axis], bounds.max[axis], nb) else {
         return Vec::new();
     };
-    let mut bins = vec![
-        SpatialBin {
-            bounds: Aabb::EMPTY,
-            enter: 0,
-            exit: 0,
+    binned_axis(clipper, refs, axis, map, area, k, budget, cost)
+}
+
+/// The best spatial split of a node found coarse to fine: per axis, `coarse` equal-width bins
+/// over the node's box, then, around each of that axis's two best coarse planes,
+/// `2 × ceil(fine / coarse)` bins over the two coarse bins beside it (the resolution of `fine`
+/// bins over the box, where the best plane is likely to be); the best of all those planes
+/// over the three axes. Bins
+/// references like [`spatial_search`] with `fine` bins at a fraction of the cost where
+/// references span many bins. `None` when no plane fits `budget`.
+#[allow(clippy::too_many_arguments)]
+pub fn refined_spatial_search(
+    clipper: &Clipper,
+    refs: &[Ref],
+    bounds: &Aabb,
+    area: f64,
+    budget: usize,
+    coarse: usize,
+    fine: usize,
+    cost: &CostModel,
+) -> Option<SpatialCand> {
+    let f = |axis| {
+        refined_axis(
+            clipper, refs, bounds, axis, area, budget, coarse, fine, cost,
+        )
+    };
+    let per_axis: Vec<Option<SpatialCand>> = if refs.len() >= PAR_AXES_THRESHOLD {
+        (0..3).into_par_iter().map(f).collect()
+    } else {
+        (0..3).map(f).collect()
+    };
+    let mut best: Option<SpatialCand> = None;
+    for c in per_axis.into_iter().flatten() {
+        if best.as_ref().is_none_or(|b| c.better(b)) {
+            best = Some(c);
+        }
+    }
+    best
+}
+
+/// How many of an axis's best coarse planes [`refined_spatial_search`] refines.
+const REFINED_PLANES: usize = 2;
+
+#[allow(clippy::too_many_arguments)]
+fn refined_axis(
+    clipper: &Clipper,
+    refs: &[Ref],
+    bounds: &Aabb,
+    axis: Axis,
+    area: f64,
+    budget: usize,
+    coarse: usize,
+    fine: usize,
+    cost: &CostModel,
+) -> Option<SpatialCand> {
+    let map = BinMap::new(bounds.min[axis], bounds.max[axis], coarse)?;
+    let coarse_cands = binned_axis(clipper, refs, axis, map, area, REFINED_PLANES, budget, cost);
+    let mut best = *coarse_cands.first()?;
+    let sub = fine.div_ceil(coarse.max(1));
+    if sub < 2 {
+        return Some(best);
+    }
+    for c in &coarse_cands {
+        let (lo, hi) = (map.plane(c.plane - 1), map.plane(c.plane + 1));
+        let Some(fmap) = BinMap::new(lo, hi, 2 * sub) else {
+            continue;
         };
-        nb
-    ];
+        if let Some(f) = binned_axis(clipper, refs, axis, fmap, area, 1, budget, cost).first() {
+            if f.better(&best) {
+                best = *f;
+            }
+        }
+    }
+    Some(best)
+}
+
+/// The `k` best spatial splits on one axis with the bins of `map`.
+#[allow(clippy::too_many_arguments)]
+fn binned_axis(
+    clipper: &Clipper,
+    refs: &[Ref],
+    axis: Axis,
+    map: BinMap,
+    area: f64,
+    k: usize,
+    budget: usize,
+    cost: &CostModel,
+) -> Vec<SpatialCand> {
+    let nb = map.bins;
+    SCRATCH.with_borrow_mut(|sc| {
+        let SpatialScratch {
+            bins,
+            planes,
+            right,
+        } = sc;
+        bins.clear();
+        bins.resize(nb, SpatialBin::EMPTY);
+        // Plane positions once per node and axis (exactly `map.plane(i)`): a division each.
+        planes.clear();
+        planes.extend((0..=nb).map(|i| map.plane(i)));
+        fill_spatial_bins(clipper, refs, axis, &map, planes, bins);
+        right.clear();
+        right.resize(nb, (0.0f32, 0u32));
+        rate_spatial_planes(bins, right, refs.len(), axis, map, area, k, budget, cost)
+    })
+}
+
+/// Reusable buffers of one spatial-binning axis (one set per thread: the binning of an axis
+/// never calls into rayon, so it is never re-entered on the same thread).
+#[derive(Default)]
+struct SpatialScratch {
+    bins: Vec<SpatialBin>,
+    planes: Vec<f32>,
+    right: Vec<(f32, u32)>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<SpatialScratch> = Default::default();
+}
+
+impl SpatialBin {
+    const EMPTY: SpatialBin = SpatialBin {
+        bounds: Aabb::EMPTY,
+        enter: 0,
+        exit: 0,
+    };
+}
+
+/// Bins every reference on one axis: counts it as entering its first bin and leaving its last,
+/// and grows each bin it spans by the box of its part there. References inside one bin grow
+/// it by their box; triangles spanning several are clipped plane by plane
+/// ([`bin_triangle`]); other primitives go through [`Clipper::bin`].
+fn fill_spatial_bins(
+    clipper: &Clipper,
+    refs: &[Ref],
+    axis: Axis,
+    map: &BinMap,
+    planes: &[f32],
+    bins: &mut [SpatialBin],
+) {
     for r in refs {
         let first = map.bin(r.bounds.min[axis]);
         let last = map.bin(r.bounds.max[axis]);
@@ -227,11 +359,34 @@ fn spatial_axis(
             bins[first].bounds.grow_aabb(&r.bounds);
             continue;
         }
-        clipper.bin(r.prim, axis, &r.bounds, &map, first..=last, |b, piece| {
-            bins[b].bounds.grow_aabb(piece)
-        });
+        match clipper {
+            Clipper::Triangles(t) => {
+                let c = SlabClipper::new(&t[r.prim as usize], axis, &r.bounds);
+                c.bin_into(planes, first, last, bins);
+            }
+            Clipper::Custom(_) => {
+                clipper.bin(r.prim, axis, &r.bounds, map, first..=last, |b, piece| {
+                    bins[b].bounds.grow_aabb(piece)
+                })
+            }
+        }
     }
-    let mut right = vec![(0.0f32, 0u32); nb];
+}
+
+/// The sweep over the filled bins of one axis: the `k` best planes.
+#[allow(clippy::too_many_arguments)]
+fn rate_spatial_planes(
+    bins: &[SpatialBin],
+    right: &mut [(f32, u32)],
+    n: usize,
+    axis: Axis,
+    map: BinMap,
+    area: f64,
+    k: usize,
+    budget: usize,
+    cost: &CostModel,
+) -> Vec<SpatialCand> {
+    let nb = bins.len();
     let mut cands: Vec<SpatialCand> = Vec::with_capacity(k);
     let side = |i: usize| {
         (
@@ -241,31 +396,24 @@ fn spatial_axis(
             bins[i].exit,
         )
     };
-    sweep_spatial_planes(
-        nb,
-        side,
-        &mut right,
-        refs.len(),
-        budget,
-        |i, lb, nl, ra: &f32, nr| {
-            let (la, ra) = (half_area(lb), ra.area());
-            let score = la * nl as f64 + ra * nr as f64;
-            if cands.len() == k && score > cands[k - 1].score {
-                return;
-            }
-            let cand = SpatialCand {
-                axis,
-                plane: i,
-                map,
-                pos: map.plane(i),
-                score,
-                cost: cost.split_cost(area, la, nl, ra, nr),
-                n_left: nl,
-                n_right: nr,
-            };
-            offer(&mut cands, k, cand, SpatialCand::better);
-        },
-    );
+    sweep_spatial_planes(nb, side, right, n, budget, |i, lb, nl, ra: &f32, nr| {
+        let (la, ra) = (half_area(lb), ra.area());
+        let score = la * nl as f64 + ra * nr as f64;
+        if cands.len() == k && score > cands[k - 1].score {
+            return;
+        }
+        let cand = SpatialCand {
+            axis,
+            plane: i,
+            map,
+            pos: map.plane(i),
+            score,
+            cost: cost.split_cost(area, la, nl, ra, nr),
+            n_left: nl,
+            n_right: nr,
+        };
+        offer(&mut cands, k, cand, SpatialCand::better);
+    });
     cands
 }
 
@@ -405,6 +553,62 @@ impl<'a> SlabClipper<'a> {
             lower_pos = upper_pos;
             lower = upper;
         }
+    }
+}
+
+impl SlabClipper<'_> {
+    /// [`bin`](Self::bin) into `bins` directly, with the plane positions read from `planes`
+    /// (`planes[i] == map.plane(i)`) and without branches on the pieces: the same boxes, bit
+    /// for bit (an empty piece becomes [`Aabb::EMPTY`], which leaves a bin unchanged).
+    #[inline]
+    fn bin_into(&self, planes: &[f32], first: usize, last: usize, bins: &mut [SpatialBin]) {
+        let a = self.axis;
+        let v = &self.v;
+        let (v0a, v1a, v2a) = (v[0][a], v[1][a], v[2][a]);
+        let mask = Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(a as f32));
+        let empty = Aabb::EMPTY;
+        // `crossing`, computed on both branches and selected (the same values).
+        let crossing = |pos: f32| -> Aabb {
+            let t0 = pos - v0a;
+            let long = v[0] + self.dir[0] * t0;
+            let s0 = v[0] + self.dir[1] * t0;
+            let s1 = v[1] + self.dir[2] * (pos - v1a);
+            let short = Vec3A::select(glam::BVec3A::splat(pos < v1a), s0, s1);
+            let inside = glam::BVec3A::splat(pos > v0a && pos < v2a);
+            Aabb::new(
+                Vec3A::select(inside, long.min(short), empty.min),
+                Vec3A::select(inside, long.max(short), empty.max),
+            )
+        };
+        let piece_in = |lower_pos: f32, lower: &Aabb, upper_pos: f32, upper: &Aabb| -> Aabb {
+            let mut piece = lower.union(upper);
+            for p in v {
+                if p[a] >= lower_pos && p[a] <= upper_pos {
+                    piece.grow(*p);
+                }
+            }
+            let slab = Aabb::new(
+                Vec3A::select(mask, Vec3A::splat(lower_pos), self.bounds.min),
+                Vec3A::select(mask, Vec3A::splat(upper_pos), self.bounds.max),
+            );
+            let piece = piece.intersection(self.bounds).intersection(&slab);
+            let keep = glam::BVec3A::splat(!piece.is_empty());
+            Aabb::new(
+                Vec3A::select(keep, piece.min, empty.min),
+                Vec3A::select(keep, piece.max, empty.max),
+            )
+        };
+        let mut lower_pos = f32::NEG_INFINITY;
+        let mut lower = Aabb::EMPTY;
+        for (b, &upper_pos) in (first..last).zip(&planes[first + 1..=last]) {
+            let upper = crossing(upper_pos);
+            let piece = piece_in(lower_pos, &lower, upper_pos, &upper);
+            bins[b].bounds.grow_aabb(&piece);
+            lower_pos = upper_pos;
+            lower = upper;
+        }
+        let piece = piece_in(lower_pos, &lower, f32::INFINITY, &empty);
+        bins[last].bounds.grow_aabb(&piece);
     }
 }
 
@@ -778,5 +982,71 @@ fn refine_plane(
         cost: cost.split_cost(area, la, nl, ra, nr),
         n_left: nl,
         n_right: nr,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (no dependency on a RNG crate in unit tests).
+    fn lcg(state: &mut u64) -> f32 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 40) as f32 / (1u64 << 24) as f32) * 4.0 - 2.0
+    }
+
+    #[test]
+    fn branchless_slab_binning_matches_the_reference_clipper() {
+        let mut s = 7u64;
+        let mut checked = 0;
+        for i in 0..2000 {
+            let mut p = || Vec3A::new(lcg(&mut s), lcg(&mut s), lcg(&mut s));
+            let mut tri = Triangle::new(p(), p(), p());
+            if i % 7 == 0 {
+                // A vertex on a plane and an edge parallel to the axis.
+                tri.v[1].x = tri.v[0].x;
+            }
+            let full = tri.bounds();
+            // Also a reference box that cuts the triangle (as after a spatial split).
+            let cut = Aabb::new(full.min + (full.max - full.min) * 0.2, full.max);
+            for bounds in [full, cut] {
+                for axis in 0..3 {
+                    let Some(map) = BinMap::new(-2.0, 2.0, 32) else {
+                        unreachable!()
+                    };
+                    let planes: Vec<f32> = (0..=32).map(|i| map.plane(i)).collect();
+                    let (first, last) = (map.bin(bounds.min[axis]), map.bin(bounds.max[axis]));
+                    if first == last {
+                        continue;
+                    }
+                    let c = SlabClipper::new(&tri, axis, &bounds);
+                    let mut want = vec![SpatialBin::EMPTY; 32];
+                    c.bin(&map, first, last, |b, piece| {
+                        want[b].bounds.grow_aabb(piece)
+                    });
+                    let mut got = vec![SpatialBin::EMPTY; 32];
+                    c.bin_into(&planes, first, last, &mut got);
+                    for (w, g) in want.iter().zip(&got) {
+                        let bits = |b: &Aabb| (b.min.to_array(), b.max.to_array()).map_bits();
+                        assert_eq!(bits(&w.bounds), bits(&g.bounds), "{tri:?} axis {axis}");
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000);
+    }
+
+    trait MapBits {
+        fn map_bits(self) -> [u32; 6];
+    }
+
+    impl MapBits for ([f32; 3], [f32; 3]) {
+        fn map_bits(self) -> [u32; 6] {
+            let (a, b) = self;
+            [a[0], a[1], a[2], b[0], b[1], b[2]].map(f32::to_bits)
+        }
     }
 }
