@@ -19,12 +19,12 @@ const CASES: &[(Procedural, &str, f64, f64)] = &[
     (Procedural::City, "tsah-topk", 10.24, 7.5),
     (Procedural::City, "tsah-binned", 5.73, 4.3),
     (Procedural::City, "popov-d2", 1.66, 1.2),
-    (Procedural::City, "popov-d3", f64::NAN, 0.0),
+    (Procedural::City, "popov-d3", 1.66, 1.2),
     (Procedural::City, "hybrid", 10.93, 8.0),
     (Procedural::TeapotStadium, "tsah-topk", 2.89, 2.1),
     (Procedural::TeapotStadium, "tsah-binned", 2.20, 1.6),
     (Procedural::TeapotStadium, "popov-d2", 0.55, 0.4),
-    (Procedural::TeapotStadium, "popov-d3", f64::NAN, 0.0),
+    (Procedural::TeapotStadium, "popov-d3", 0.48, 0.35),
     (Procedural::TeapotStadium, "hybrid", 2.81, 2.1),
 ];
 
