@@ -9,6 +9,7 @@ mod hardcases;
 mod oracle_cmd;
 mod scaling;
 mod scenes_cmd;
+mod study;
 #[cfg(test)]
 mod tidy;
 mod trace_cmd;
@@ -48,6 +49,9 @@ enum Cmd {
     /// then every wide layout and backend against the scalar reference on primary, diffuse and
     /// AO rays at 1024×768 (the heavy versions of the test suite's checks; takes minutes).
     Verify,
+    /// The sensitivity study of the temporary-subtree builders (issue 15): one factor at a
+    /// time against the sweep tree built under the same settings (`--quick`: ≤ 5 minutes).
+    Study(study::Args),
 }
 
 fn main() {
@@ -62,6 +66,7 @@ fn main() {
         Cmd::Verify => verify(),
         Cmd::Hardcases(a) => hardcases::run(a),
         Cmd::Oracle(a) => oracle_cmd::run(a),
+        Cmd::Study(a) => study::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

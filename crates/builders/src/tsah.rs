@@ -47,6 +47,7 @@
 
 mod binned_cost;
 pub(crate) mod engine;
+mod median_cost;
 
 use sahara_bvh::Bvh;
 
@@ -77,6 +78,14 @@ pub enum Candidates {
         /// Number of bins per axis, at least 2.
         bins_per_axis: usize,
     },
+    /// [`Candidates::Exhaustive`] at nodes of at most `up_to` primitives, the `k` best per
+    /// axis by Eq. 2 above (a study setting: is the top-k selection what loses the gain?).
+    ExhaustiveBelow {
+        /// Largest node rated exhaustively.
+        up_to: usize,
+        /// Candidates per axis at larger nodes, at least 1.
+        k: usize,
+    },
 }
 
 /// How the temporary subtrees that rate a candidate are built.
@@ -91,6 +100,10 @@ pub enum Temporary {
         /// Bins per axis.
         bins: usize,
     },
+    /// A deliberately poor temporary: object-median splits on the axis of largest centroid
+    /// extent down to leaves of at most `max_leaf_size` (a study setting, testing the
+    /// paper's claim that only SAH-built temporaries help).
+    Median,
 }
 
 /// Configuration of the temporary-subtree SAH builder.
@@ -162,7 +175,9 @@ impl Strategy for TsahConfig {
             return bad("max_leaf_size must be at least 1");
         }
         match self.candidates {
-            Candidates::TopK { k: 0, .. } => return bad("top-k needs k >= 1"),
+            Candidates::TopK { k: 0, .. } | Candidates::ExhaustiveBelow { k: 0, .. } => {
+                return bad("top-k needs k >= 1")
+            }
             Candidates::Binned { bins_per_axis } if bins_per_axis < 2 => {
                 return bad("binned candidates need at least 2 bins per axis")
             }
@@ -186,10 +201,14 @@ impl Strategy for TsahConfig {
                 )
             }
             Candidates::Binned { bins_per_axis } => format!("{bins_per_axis} bins per axis"),
+            Candidates::ExhaustiveBelow { up_to, k } => {
+                format!("all sweep candidates up to {up_to} prims, top-{k} per axis above")
+            }
         };
         let temps = match self.temporary {
             Temporary::Sweep => "sweep".to_string(),
             Temporary::Binned { bins } => format!("binned ({bins} bins)"),
+            Temporary::Median => "median-split".to_string(),
         };
         format!(
             "temporary-subtree SAH (Wodniok & Goesele): {cands}{}, {temps} temporaries, greedy at <= {} prims, max leaf {}",
@@ -277,6 +296,16 @@ impl Rater for TemporaryRater {
     fn rate(&self, node: &LocalNode, c: &SplitCandidate, sc: &mut TempScratch) -> f64 {
         let (l, r) = match self.temporary {
             Temporary::Sweep => sweep_sides(node, c, &self.cost, self.max_leaf, sc),
+            Temporary::Median => {
+                let (lo, hi) = node.orders[c.axis].split_at(c.pos);
+                let mut side = |ids: &[u32]| {
+                    sc.boxes.clear();
+                    sc.boxes
+                        .extend(ids.iter().map(|&i| node.bounds[i as usize]));
+                    median_cost::median_cost(&mut sc.boxes, &self.cost, self.max_leaf)
+                };
+                (side(lo), side(hi))
+            }
             Temporary::Binned { bins } => {
                 let order = &node.orders[c.axis];
                 let side =

@@ -135,6 +135,14 @@ impl Collector {
     fn new(c: &Candidates, orders: [&[u32]; 3], centroids: &[Vec3A]) -> Self {
         match *c {
             Candidates::Exhaustive => Collector::All(Vec::new()),
+            Candidates::ExhaustiveBelow { up_to, .. } if orders[0].len() <= up_to => {
+                Collector::All(Vec::new())
+            }
+            Candidates::ExhaustiveBelow { k, .. } => Collector::TopK {
+                k,
+                lists: Default::default(),
+                per_axis: true,
+            },
             Candidates::TopK { k, per_axis } => Collector::TopK {
                 k,
                 lists: Default::default(),
