@@ -7,6 +7,7 @@ mod embree;
 mod eval;
 mod hardcases;
 mod oracle_cmd;
+mod package_cmd;
 mod scaling;
 mod scenes_cmd;
 #[cfg(test)]
@@ -48,6 +49,9 @@ enum Cmd {
     /// then every wide layout and backend against the scalar reference on primary, diffuse and
     /// AO rays at 1024×768 (the heavy versions of the test suite's checks; takes minutes).
     Verify,
+    /// `cargo package` with verification of every publishable crate together (takes minutes;
+    /// not part of the test suite).
+    Package(package_cmd::Args),
 }
 
 fn main() {
@@ -62,6 +66,7 @@ fn main() {
         Cmd::Verify => verify(),
         Cmd::Hardcases(a) => hardcases::run(a),
         Cmd::Oracle(a) => oracle_cmd::run(a),
+        Cmd::Package(a) => package_cmd::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
