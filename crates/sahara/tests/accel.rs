@@ -10,7 +10,7 @@ use sahara_traverse::brute;
 fn scene() -> Vec<Triangle> {
     let mut tris = mixed_soup(1500, 3);
     // A few duplicates and a degenerate triangle: built like any other, ties by index.
-    tris.extend_from_slice(&tris[..20].to_vec());
+    tris.extend_from_within(..20);
     tris.push(Triangle::new(Vec3A::ZERO, Vec3A::ZERO, Vec3A::X));
     tris
 }
