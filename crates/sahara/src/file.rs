@@ -18,7 +18,9 @@
 //! The wide layout is **not** stored: it is rebuilt on load by the same deterministic
 //! collapse that built it (it depends on the binary tree only, not on the CPU), so the file
 //! does not change when the layout's internal format does, and a file written on one machine
-//! loads on any other. The collapse costs a few percent of a `Medium` build.
+//! loads on any other. Loading is not free: on the example's 9 218 triangles it took 53 ms
+//! (checksums, validation, collapse) against 18 ms for a `Medium` build and 1.3 s for `High`
+//! (one run, loaded machine), so caching pays for `High` and `Best`.
 //!
 //! Version 2 will add the instance set when instances land (see the crate docs).
 
