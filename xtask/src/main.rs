@@ -7,6 +7,7 @@ mod embree;
 mod eval;
 mod hardcases;
 mod oracle_cmd;
+mod package_cmd;
 mod scaling;
 mod scenes_cmd;
 mod study;
@@ -52,6 +53,9 @@ enum Cmd {
     /// The sensitivity study of the temporary-subtree builders (issue 15): one factor at a
     /// time against the sweep tree built under the same settings (`--quick`: ≤ 5 minutes).
     Study(study::Args),
+    /// `cargo package` with verification of every publishable crate together (takes minutes;
+    /// not part of the test suite).
+    Package(package_cmd::Args),
 }
 
 fn main() {
@@ -67,6 +71,7 @@ fn main() {
         Cmd::Hardcases(a) => hardcases::run(a),
         Cmd::Oracle(a) => oracle_cmd::run(a),
         Cmd::Study(a) => study::run(a),
+        Cmd::Package(a) => package_cmd::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

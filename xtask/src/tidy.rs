@@ -138,7 +138,7 @@ fn parse_manifest(path: &Path) -> Manifest {
 }
 
 fn is_workspace_crate(name: &str) -> bool {
-    name.starts_with("sahara-") || name == "xtask"
+    name.starts_with("sahara-") || name == "sahara" || name == "xtask"
 }
 
 /// The "Allowed dependencies" section: crate → (allowed in `[dependencies]`, extra allowed in
@@ -628,4 +628,81 @@ fn readme_examples_are_doctests() {
         }
     }
     assert!(errors.is_empty(), "\n{}\n", errors.join("\n\n"));
+}
+
+/// Whether a manifest says `publish = false`.
+fn is_unpublished(manifest: &str) -> bool {
+    manifest
+        .lines()
+        .any(|l| l.split_whitespace().collect::<String>() == "publish=false")
+}
+
+#[test]
+fn library_crates_are_publishable() {
+    let mut errors = Vec::new();
+    let unpublished: BTreeSet<String> = manifests()
+        .iter()
+        .filter(|p| is_unpublished(&read(p)))
+        .map(|p| parse_manifest(p).name)
+        .collect();
+    for path in manifests() {
+        let text = read(&path);
+        let name = rel(&path);
+        if text
+            .lines()
+            .any(|l| l.trim_start().starts_with("repository"))
+        {
+            errors.push(format!(
+                "{name}: remove `repository` (no invented URL; add it when there is a real one)"
+            ));
+        }
+        if is_unpublished(&text) {
+            continue;
+        }
+        let has_key = |key: &str| {
+            text.lines()
+                .any(|l| l.split('=').next().is_some_and(|k| k.trim() == key))
+        };
+        for key in ["description", "readme", "keywords", "categories"] {
+            if !has_key(key) {
+                errors.push(format!(
+                    "{name}: a published crate needs `{key}` in [package]"
+                ));
+            }
+        }
+        if !text.contains("[package.metadata.docs.rs]") {
+            errors.push(format!("{name}: add a [package.metadata.docs.rs] table"));
+        }
+        let dir = path.parent().expect("manifest in a folder");
+        if !dir.join("README.md").is_file() {
+            errors.push(format!("{name}: a published crate needs a README.md"));
+        }
+        for dep in &parse_manifest(&path).deps {
+            if unpublished.contains(dep) {
+                errors.push(format!(
+                    "{name}: [dependencies] has `{dep}`, which is `publish = false`; only \
+                     [dev-dependencies] may use it"
+                ));
+            }
+        }
+    }
+    // Unpublished crates have no version in [workspace.dependencies], so that cargo drops
+    // them from the packaged manifests of the crates that use them in their tests.
+    let workspace = read(&root().join("Cargo.toml"));
+    for line in workspace.lines() {
+        let key = line.split('=').next().unwrap_or("").trim();
+        if unpublished.contains(key) && line.contains("version") {
+            errors.push(format!(
+                "Cargo.toml: `{key}` is `publish = false`; give it a path and no version in \
+                 [workspace.dependencies]"
+            ));
+        }
+    }
+    if workspace
+        .lines()
+        .any(|l| l.trim_start().starts_with("repository"))
+    {
+        errors.push("Cargo.toml: remove `repository` from [workspace.package]".to_string());
+    }
+    assert!(errors.is_empty(), "\n{}\n", errors.join("\n"));
 }

@@ -14,9 +14,12 @@ use sahara_geom::{Aabb, Vec3A};
 /// The environment variable naming extra scene folders (a path list, `:`-separated on Unix).
 pub const SCENES_ENV: &str = "SAHARA_SCENES";
 
-/// The repository's `scenes/cameras.tsv` as it was when this crate was built: the cameras of
-/// the named scenes for a program run outside the repository ([`named_cameras`]).
-pub const EMBEDDED_CAMERAS: &str = include_str!("../../../scenes/cameras.tsv");
+/// The cameras of the named scenes as this crate was built with them, for a program run
+/// outside the repository ([`named_cameras`]). The canonical table is the crate's own
+/// `cameras.tsv` (inside the package, so the crate builds from its published archive); the
+/// repository's `scenes/cameras.tsv` is a byte-identical copy (pinned by
+/// `tests/cameras.rs`) that the catalog reads over it at run time.
+pub const EMBEDDED_CAMERAS: &str = include_str!("../cameras.tsv");
 
 /// A problem met while reading a scene folder's `manifest.tsv` or `cameras.tsv`. The catalog
 /// still uses the folder, without the offending part ([`Catalog::warnings`]).

@@ -1,0 +1,280 @@
+//! sahara for renderers: build a BVH over triangles with one quality knob, and trace rays
+//! on the fastest SIMD layout of the CPU.
+//!
+//! * [`Accel::build`] (triangles) and [`Accel::build_indexed`] (vertex positions and index
+//!   triples) build with a [`Quality`] level or full [`BuildOptions`] (cost model, threads);
+//! * [`Accel::closest_hit`], [`Accel::any_hit`] (occlusion) and the batch queries
+//!   [`Accel::closest_hits`] and [`Accel::any_hits`] (on rayon, results in the order of the
+//!   rays, the same whatever the thread count);
+//! * [`Accel::save`] and [`Accel::load`] store the whole structure in a versioned,
+//!   checksummed file (the layout is rebuilt on load; see [`file`]); a broken file is a
+//!   [`LoadError`].
+//!
+//! **The façade adds no algorithm**: it chooses a registered builder of `sahara-builders` by
+//! quality level, checks its tree, collapses it into the 8-wide layout of `sahara-traverse`
+//! and calls that crate's kernels, whose SIMD backend (AVX-512, AVX2, SSE2 or portable) is
+//! picked at run time ([`Accel::backend`]). Every answer is the one of the scalar reference
+//! kernel, bit for bit (ties at equal distance: the lowest triangle index), so a brute-force
+//! loop over the triangles gives the same hits.
+//!
+//! **Why 8-wide everywhere.** bvh8 traced faster than bvh4 on the same CPU with both the SSE2
+//! and the AVX2 kernels (bunny primary rays, 2026-11-25: bvh4 2.4–2.6×, bvh8 2.6–3.1× the
+//! binary tree), and 2.4–4.7× faster than the binary tree on the shared scenes; see
+//! `docs/facade.md`.
+//!
+//! **Bad input.** Non-finite vertices, bad indices and invalid cost models are typed
+//! [`Error`]s; degenerate and duplicate triangles are built like any other (and never hit);
+//! an invalid ray (NaN or infinite origin, zero or non-finite direction, `tmin > tmax`; see
+//! [`Ray::is_valid`]) misses.
+//!
+//! **Not here yet.** User primitives (boxes plus an intersection callback), any-hit filters,
+//! instances (a two-level structure) and refit are being added to `sahara-traverse`; they
+//! will appear here as `Accel::build_boxes`, an `Instances` type next to [`Accel`], and
+//! `Accel::refit`, with the instance set stored in version 2 of the [`file`] format. Until
+//! then, the lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! everything the façade does not cover.
+//!
+//! # Example
+//!
+//! The README's example (compiled and run as a doctest):
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+mod error;
+pub mod file;
+mod quality;
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+use rayon::prelude::*;
+
+pub use error::{BuildError, Error, LoadError, ValidationError};
+pub use quality::{BuildOptions, Quality};
+pub use sahara_bvh::Bvh;
+pub use sahara_geom::{Aabb, Ray, Triangle, Vec3, Vec3A};
+pub use sahara_metrics::CostModel;
+pub use sahara_traverse::{Backend, Bvh8, Hit};
+
+/// The lower crates, for what the façade does not cover (other builders, other layouts,
+/// work counters, metrics).
+pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_traverse};
+
+/// A ray-tracing acceleration structure over triangles: the triangles, the binary tree
+/// built over them at a [`Quality`] level, and its 8-wide SIMD layout.
+///
+/// ```
+/// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
+///
+/// let tris: Vec<Triangle> = (0..100)
+///     .map(|i| {
+///         let o = Vec3A::new((i % 10) as f32, (i / 10) as f32, 4.0);
+///         Triangle::new(o, o + Vec3A::X, o + Vec3A::Y)
+///     })
+///     .collect();
+/// let accel = Accel::build(&tris, Quality::High)?;
+/// let ray = Ray::new(Vec3A::new(2.25, 3.25, 0.0), Vec3A::Z, 0.0, f32::INFINITY);
+/// assert_eq!(accel.closest_hit(&ray).map(|h| h.prim), Some(32));
+/// assert!(!accel.any_hit(&Ray::new(Vec3A::ZERO, -Vec3A::Z, 0.0, f32::INFINITY)));
+/// # Ok::<(), sahara::Error>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Accel {
+    triangles: Vec<Triangle>,
+    bvh: Bvh,
+    wide: Bvh8,
+    quality: Quality,
+    cost: CostModel,
+}
+
+impl Accel {
+    /// Builds over `triangles` (copied) with a quality level or [`BuildOptions`].
+    ///
+    /// Fails with [`Error::Build`] on a non-finite vertex or an invalid cost model. An empty
+    /// slice gives a structure that every ray misses.
+    pub fn build(triangles: &[Triangle], options: impl Into<BuildOptions>) -> Result<Accel, Error> {
+        Self::build_owned(triangles.to_vec(), options.into())
+    }
+
+    /// Builds over an indexed mesh: vertex positions (glam [`Vec3`], [`Vec3A`] or `[f32; 3]`)
+    /// and one index triple per triangle. Hits report the triple's position in `indices`.
+    ///
+    /// Fails with [`Error::IndexOutOfRange`] when a triple names a missing vertex.
+    ///
+    /// ```
+    /// use sahara::{Accel, Quality, Ray, Vec3A};
+    /// let positions = [[0.0f32, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]];
+    /// let accel = Accel::build_indexed(&positions, &[[0, 1, 2]], Quality::Fast)?;
+    /// assert_eq!(accel.len(), 1);
+    /// assert!(matches!(
+    ///     Accel::build_indexed(&positions, &[[0, 1, 3]], Quality::Fast),
+    ///     Err(sahara::Error::IndexOutOfRange { triangle: 0, index: 3, vertices: 3 })
+    /// ));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn build_indexed<P: Copy + Into<Vec3A>>(
+        positions: &[P],
+        indices: &[[u32; 3]],
+        options: impl Into<BuildOptions>,
+    ) -> Result<Accel, Error> {
+        let mut triangles = Vec::with_capacity(indices.len());
+        for (triangle, idx) in indices.iter().enumerate() {
+            let mut v = [Vec3A::ZERO; 3];
+            for (slot, &index) in v.iter_mut().zip(idx) {
+                *slot = positions
+                    .get(index as usize)
+                    .copied()
+                    .ok_or(Error::IndexOutOfRange {
+                        triangle,
+                        index,
+                        vertices: positions.len(),
+                    })?
+                    .into();
+            }
+            triangles.push(Triangle::new(v[0], v[1], v[2]));
+        }
+        Self::build_owned(triangles, options.into())
+    }
+
+    fn build_owned(triangles: Vec<Triangle>, options: BuildOptions) -> Result<Accel, Error> {
+        let name = options.quality.builder_name();
+        let builder =
+            sahara_builders::registry::by_name(name).ok_or(Error::MissingBuilder(name))?;
+        let input = sahara_builders::BuildInput::new(&triangles, options.cost)?;
+        let bvh = match options.threads {
+            None => builder.build(&input)?,
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n.get())
+                .build()
+                .map_err(|e| Error::ThreadPool(e.to_string()))?
+                .install(|| builder.build(&input))?,
+        };
+        drop(input);
+        // Never trace an unchecked tree: the wide collapse indexes it without bounds checks.
+        bvh.validate(&triangles)?;
+        Ok(Self::assemble(
+            triangles,
+            bvh,
+            options.quality,
+            options.cost,
+        ))
+    }
+
+    /// The structure over a checked tree.
+    pub(crate) fn assemble(
+        triangles: Vec<Triangle>,
+        bvh: Bvh,
+        quality: Quality,
+        cost: CostModel,
+    ) -> Accel {
+        let wide = Bvh8::from_bvh(&bvh, &triangles);
+        Accel {
+            triangles,
+            bvh,
+            wide,
+            quality,
+            cost,
+        }
+    }
+
+    /// The closest hit in `[ray.tmin, ray.tmax]`, or `None`. At equal distance the lowest
+    /// triangle index wins. Invalid rays miss.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let hit = self.wide.closest_hit(ray, &mut sahara_traverse::NoStats);
+        hit.is_hit().then_some(hit)
+    }
+
+    /// True when any triangle is hit in `[ray.tmin, ray.tmax]` (occlusion; stops at the first
+    /// hit found). Invalid rays miss.
+    #[inline]
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.wide.any_hit(ray, &mut sahara_traverse::NoStats)
+    }
+
+    /// [`Accel::closest_hit`] of every ray, traced in parallel on the current rayon pool
+    /// (use `ThreadPool::install` to choose one), in the order of `rays`.
+    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+        rays.par_iter()
+            .with_min_len(64)
+            .map(|r| self.closest_hit(r))
+            .collect()
+    }
+
+    /// [`Accel::any_hit`] of every ray, in parallel, in the order of `rays`.
+    pub fn any_hits(&self, rays: &[Ray]) -> Vec<bool> {
+        rays.par_iter()
+            .with_min_len(64)
+            .map(|r| self.any_hit(r))
+            .collect()
+    }
+
+    /// Writes the structure (format in [`file`]).
+    pub fn save<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
+        file::save(self, w)
+    }
+
+    /// Reads a structure written by [`Accel::save`]: checks the magic, version, sizes and
+    /// checksums, that the triangles are finite and that the tree fits them, then rebuilds
+    /// the 8-wide layout. Never panics on any bytes.
+    pub fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
+        file::load(r)
+    }
+
+    /// [`Accel::save`] to a file.
+    pub fn save_to_path(&self, path: impl AsRef<Path>) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+        self.save(&mut w)?;
+        w.flush()
+    }
+
+    /// [`Accel::load`] from a file.
+    pub fn load_from_path(path: impl AsRef<Path>) -> Result<Accel, LoadError> {
+        Self::load(&mut std::io::BufReader::new(std::fs::File::open(path)?))
+    }
+
+    /// The triangles, in the order hits index them.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    /// The number of triangles.
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// True when there are no triangles (every ray misses).
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// The quality level it was built at.
+    pub fn quality(&self) -> Quality {
+        self.quality
+    }
+
+    /// The cost model it was built with.
+    pub fn cost(&self) -> CostModel {
+        self.cost
+    }
+
+    /// The binary tree (for metrics such as `sahara_metrics::sah`, or the scalar kernels).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// The 8-wide layout the queries run on.
+    pub fn wide(&self) -> &Bvh8 {
+        &self.wide
+    }
+
+    /// The SIMD backend the queries use on this CPU.
+    pub fn backend(&self) -> Backend {
+        self.wide.backend()
+    }
+
+    /// Bounds of all triangles (empty when there are none).
+    pub fn bounds(&self) -> Aabb {
+        self.wide.bounds()
+    }
+}
