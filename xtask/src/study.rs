@@ -24,6 +24,7 @@ use sahara_builders::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_builders::{BuildInput, Builder, CostModel};
 use sahara_geom::Vec3A;
 use sahara_trace::{RayKind, RaySet, Tracer};
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -130,6 +131,9 @@ impl Reference {
 /// The leaf size standing for "unbounded": leaves are then decided by the SAH alone.
 const UNBOUNDED: usize = 1 << 20;
 
+/// A named preset and the function that makes it.
+type Preset = (&'static str, fn() -> Box<dyn Builder>);
+
 fn leaf_label(l: usize) -> String {
     if l >= UNBOUNDED {
         "∞".into()
@@ -184,11 +188,8 @@ fn settings(factor: &str, quick: bool) -> Result<Vec<Setting>> {
     let mut v = Vec::new();
     match factor {
         "cost" => {
-            let models: &[(f32, f32)] = if quick {
-                &[(1.0, 1.0), (1.2, 1.0), (3.0, 1.0), (1.0, 3.0)]
-            } else {
-                &[(1.0, 1.0), (1.2, 1.0), (3.0, 1.0), (1.0, 3.0)]
-            };
+            // The same four ratios in the quick and the full study.
+            let models: &[(f32, f32)] = &[(1.0, 1.0), (1.2, 1.0), (3.0, 1.0), (1.0, 3.0)];
             for &(t, i) in models {
                 let level = format!("c_t/c_i = {t}/{i}");
                 v.push(Setting {
@@ -203,11 +204,7 @@ fn settings(factor: &str, quick: bool) -> Result<Vec<Setting>> {
             }
         }
         "leaf" => {
-            let leaves: &[usize] = if quick {
-                &[1, 4, 8, UNBOUNDED]
-            } else {
-                &[1, 4, 8, UNBOUNDED]
-            };
+            let leaves: &[usize] = &[1, 4, 8, UNBOUNDED];
             for &l in leaves {
                 v.push(Setting {
                     reference: Reference::Sweep { max_leaf: l },
@@ -372,7 +369,7 @@ fn settings(factor: &str, quick: bool) -> Result<Vec<Setting>> {
         }
         "camera" => {
             for camera in [CameraKind::Catalog, CameraKind::Outside] {
-                let presets: [(&'static str, fn() -> Box<dyn Builder>); 4] = [
+                let presets: [Preset; 4] = [
                     ("tsah-topk", || tsah(TsahConfig::TOP_K)),
                     ("tsah-binned", || tsah(TsahConfig::BINNED)),
                     ("popov-d2", || popov(PopovConfig::D2)),
@@ -699,11 +696,15 @@ pub fn run(a: Args) -> Result<()> {
             }
             let cost_key = format!("{}/{}", s.cost.traversal, s.cost.intersection);
             let rkey = format!("{} {cost_key}", s.reference.name());
-            if !refs.contains_key(&rkey) {
-                let t = build(s.reference.builder().as_ref(), tris, s.cost, a.threads)?;
-                refs.insert(rkey.clone(), t);
+            if let Entry::Vacant(slot) = refs.entry(rkey.clone()) {
+                slot.insert(build(
+                    s.reference.builder().as_ref(),
+                    tris,
+                    s.cost,
+                    a.threads,
+                )?);
             }
-            if !sets.contains_key(&s.camera) {
+            if let Entry::Vacant(slot) = sets.entry(s.camera) {
                 let reference = &refs[&rkey];
                 let tracer = sahara_trace::Bvh2Tracer::new(&reference.bvh, tris);
                 let camera = match s.camera {
@@ -719,21 +720,20 @@ pub fn run(a: Args) -> Result<()> {
                         })
                         .collect::<Vec<_>>()
                 })?;
-                sets.insert(s.camera, (v, eye_inside));
+                slot.insert((v, eye_inside));
             }
             let builder = (s.make)(n);
             let ckey = format!("{} {cost_key}", builder.describe());
             let t_build = Instant::now();
-            if !cands.contains_key(&ckey) {
+            if let Entry::Vacant(slot) = cands.entry(ckey.clone()) {
                 let t = build(builder.as_ref(), tris, s.cost, a.threads)?;
-                cands.insert(ckey.clone(), (t, builder.describe()));
+                slot.insert((t, builder.describe()));
             }
             let (set, eye_inside) = &sets[&s.camera];
             let reference = &refs[&rkey];
             let wkey = format!("{rkey} {}", s.camera.name());
-            if !ref_work.contains_key(&wkey) {
-                let w = work(reference, tris, set, s.cost, a.threads)?;
-                ref_work.insert(wkey.clone(), w);
+            if let Entry::Vacant(slot) = ref_work.entry(wkey.clone()) {
+                slot.insert(work(reference, tris, set, s.cost, a.threads)?);
             }
             let (tree, _) = &cands[&ckey];
             let w = work(tree, tris, set, s.cost, a.threads)?;
