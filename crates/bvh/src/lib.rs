@@ -35,11 +35,13 @@
 
 mod io;
 mod node;
+mod refit;
 mod stats;
 mod validate;
 
 pub use io::{LoadError, FILE_MAGIC, FILE_VERSION};
 pub use node::Node;
+pub use refit::RefitError;
 pub use stats::BvhStats;
 pub use validate::ValidationError;
 

@@ -4,6 +4,10 @@
 //!   robust slab test, watertight triangles): the reference every faster kernel is checked
 //!   against;
 //! * [`brute`]: a brute-force tracer that tests every triangle, for tests;
+//! * [`custom`]: any primitive (a user intersection callback over a tree built from boxes)
+//!   and any-hit filters on triangles (alpha-tested leaves), with their brute-force references;
+//! * [`instance`]: two-level scenes, a top-level tree over instances (a bottom-level tree and
+//!   an affine transform each);
 //! * [`wide`]: 4- and 8-wide BVHs collapsed from the binary tree, with SSE2 / AVX2 kernels
 //!   (and a portable fallback) that return exactly the reference's hits.
 //!
@@ -28,6 +32,8 @@
 #![warn(missing_docs)]
 
 pub mod brute;
+pub mod custom;
+pub mod instance;
 pub mod scalar;
 mod stats;
 pub mod wide;

@@ -26,9 +26,66 @@ const C_LEAF: f32 = 0.5;
 /// diffuse rays for up to 1.5% on some primary rays, with a third fewer nodes.
 const C_PACKET: f32 = 0.5;
 
+/// What the leaves of a wide tree hold: triangles (copied into the packets) or primitives known
+/// only by their boxes (packets of indices with NaN vertices, for the callback traversals of
+/// [`super::custom`]).
+#[derive(Clone, Copy)]
+pub(crate) enum Source<'a> {
+    Triangles(&'a [Triangle]),
+    Boxes(&'a [Aabb]),
+}
+
+impl Source<'_> {
+    pub(crate) fn len(&self) -> usize {
+        match self {
+            Source::Triangles(t) => t.len(),
+            Source::Boxes(b) => b.len(),
+        }
+    }
+
+    pub(crate) fn bounds(&self, p: u32) -> Aabb {
+        match self {
+            Source::Triangles(t) => t[p as usize].bounds(),
+            Source::Boxes(b) => b[p as usize],
+        }
+    }
+
+    fn centroid(&self, p: u32) -> sahara_geom::Vec3A {
+        match self {
+            Source::Triangles(t) => t[p as usize].centroid(),
+            Source::Boxes(b) => b[p as usize].centroid(),
+        }
+    }
+
+    /// Writes primitive `prim` into lane `lane` of a packet: its vertices (NaN for a
+    /// degenerate triangle, which never hits, and for a box primitive) and its index.
+    pub(crate) fn fill_lane(&self, p: &mut TriPacket, lane: usize, prim: u32) {
+        p.prims[lane] = prim;
+        for k in 0..3 {
+            for a in 0..3 {
+                p.v[k][a][lane] = f32::NAN;
+            }
+        }
+        let Source::Triangles(tris) = self else {
+            return;
+        };
+        let t = &tris[prim as usize];
+        if is_degenerate(t) {
+            // Never hit (`accept_hit`): NaN vertices, which the packet tests never hit, so
+            // the SIMD tests need not check for degenerate triangles.
+            return;
+        }
+        for k in 0..3 {
+            for a in 0..3 {
+                p.v[k][a][lane] = t.v[k][a];
+            }
+        }
+    }
+}
+
 struct Collapser<'a, const W: usize> {
     bvh: &'a Bvh,
-    tris: &'a [Triangle],
+    tris: Source<'a>,
     nodes: Vec<WideNode<W>>,
     packets: Vec<TriPacket>,
     /// Wide nodes allocated but not filled yet: `(binary node, wide node)`.
@@ -192,7 +249,7 @@ fn half_area(b: &Aabb) -> f64 {
     e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
 }
 
-pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: &[Triangle]) -> WideBvh<W> {
+pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: Source<'_>) -> WideBvh<W> {
     assert!(
         W == 4 || W == 8,
         "wide BVHs have 4 or 8 children per node, not {W}"
@@ -341,7 +398,7 @@ impl<const W: usize> Collapser<'_, W> {
         if prims.len() > LEAF_MAX {
             // Sort along the longest axis so that the sub-leaves have tight boxes.
             let axis = bounds.largest_axis();
-            let key = |p: u32| self.tris[p as usize].centroid()[axis];
+            let key = |p: u32| self.tris.centroid(p)[axis];
             prims.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
         }
         self.big_leaf(&prims, bounds)
@@ -367,7 +424,7 @@ impl<const W: usize> Collapser<'_, W> {
         for (s, part) in prims.chunks(per).enumerate() {
             let mut b = Aabb::EMPTY;
             for &p in part {
-                b.grow_aabb(&self.tris[p as usize].bounds());
+                b.grow_aabb(&self.tris.bounds(p));
             }
             // With spatial splits the triangles may stick out of the leaf: clip the box.
             let mut b = b.intersection(bounds);
@@ -390,18 +447,7 @@ impl<const W: usize> Collapser<'_, W> {
             prims: [u32::MAX; 4],
         };
         for (lane, &prim) in prims.iter().enumerate() {
-            p.prims[lane] = prim;
-            let t = &self.tris[prim as usize];
-            if is_degenerate(t) {
-                // Never hit (`accept_hit`): NaN vertices, which the packet tests never hit, so
-                // the SIMD tests need not check for degenerate triangles.
-                continue;
-            }
-            for k in 0..3 {
-                for a in 0..3 {
-                    p.v[k][a][lane] = t.v[k][a];
-                }
-            }
+            self.tris.fill_lane(&mut p, lane, prim);
         }
         p
     }
@@ -472,7 +518,7 @@ mod tests {
     fn check<const W: usize>(bvh: &Bvh, tris: &[Triangle]) {
         let refs = refs(bvh);
         let plan = Plan::new(bvh, &refs, W);
-        let w = collapse::<W>(bvh, tris);
+        let w = collapse::<W>(bvh, Source::Triangles(tris));
         // The built tree is the planned one (no leaf exceeds 32 references here).
         let (planned, built) = (plan.root_cost, wide_cost(&w));
         assert!(
@@ -502,7 +548,7 @@ mod tests {
         }
         assert!(seen.iter().all(|&s| s == 1));
         // Deterministic, bit for bit.
-        let again = collapse::<W>(bvh, tris);
+        let again = collapse::<W>(bvh, Source::Triangles(tris));
         let bits = |w: &WideBvh<W>| -> Vec<u32> {
             w.nodes
                 .iter()
@@ -546,7 +592,7 @@ mod tests {
         let mut tris = soup(10, 5);
         tris[3] = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0);
         let bvh = build("sweep", &tris);
-        let w = collapse::<8>(&bvh, &tris);
+        let w = collapse::<8>(&bvh, Source::Triangles(&tris));
         let mut found = false;
         for p in &w.packets {
             for lane in 0..4 {

@@ -385,7 +385,7 @@ fn enters_root<const W: usize>(bvh: &WideBvh<W>, ray: &Ray, rd: &RayData, tfar: 
 /// popped near to far, and returns the nearest one, which is visited next (not pushed); `None`
 /// for an empty mask.
 #[inline(always)]
-fn descend_closest<const W: usize, St: Stack>(
+pub(crate) fn descend_closest<const W: usize, St: Stack>(
     node: &WideNode<W>,
     mut mask: u32,
     dist: &[f32; W],
@@ -438,7 +438,7 @@ fn descend_closest<const W: usize, St: Stack>(
 /// Pushes the children of `node` in `mask` but the first, which is returned (any-hit
 /// traversal: no order).
 #[inline(always)]
-fn descend_any<const W: usize, St: Stack>(
+pub(crate) fn descend_any<const W: usize, St: Stack>(
     node: &WideNode<W>,
     mut mask: u32,
     stack: &mut St,
@@ -468,7 +468,13 @@ fn descend_any<const W: usize, St: Stack>(
 /// # Safety
 /// As for [`closest_hit`].
 #[inline(always)]
-unsafe fn enter<K: Kernel<W>, const W: usize, S: TraversalStats, St: Stack, const NEG: bool>(
+pub(crate) unsafe fn enter<
+    K: Kernel<W>,
+    const W: usize,
+    S: TraversalStats,
+    St: Stack,
+    const NEG: bool,
+>(
     bvh: &WideBvh<W>,
     ray: &Ray,
     rd: &RayData,

@@ -120,6 +120,15 @@ impl<T: Copy> Deref for HugeSlice<T> {
     }
 }
 
+impl<T: Copy> std::ops::DerefMut for HugeSlice<T> {
+    /// Mutable access (refitting rewrites bounds and packets in place).
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [T] {
+        // SAFETY: as in `deref`; `&mut self` is the only access to the elements.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.as_ptr(), self.len) }
+    }
+}
+
 impl<'a, T: Copy> IntoIterator for &'a HugeSlice<T> {
     type Item = &'a T;
     type IntoIter = std::slice::Iter<'a, T>;

@@ -77,6 +77,7 @@
 //! ```
 
 mod collapse;
+mod custom;
 mod kernel;
 mod memory;
 mod portable;
@@ -221,7 +222,7 @@ impl<const W: usize> WideBvh<W> {
     /// If `W` is not 4 or 8, if `bvh` fails [`Bvh::validate_structure`], or if a leaf of
     /// `bvh` references a triangle outside `tris`.
     pub fn from_bvh(bvh: &Bvh, tris: &[Triangle]) -> Self {
-        collapse::collapse(bvh, tris)
+        collapse::collapse(bvh, collapse::Source::Triangles(tris))
     }
 
     /// Closest hit with the fastest backend available for this width (see
@@ -333,6 +334,38 @@ impl<const W: usize> WideBvh<W> {
     /// Bounds of the whole tree (empty for an empty tree).
     pub fn bounds(&self) -> Aabb {
         self.root_bounds
+    }
+
+    /// A 64-bit fingerprint of the whole tree (FNV-1a over the bits of every node, packet,
+    /// the root and its bounds), as [`Bvh::fingerprint`]: equal trees give equal
+    /// fingerprints, and a change of any bound's or vertex's bit changes it with overwhelming
+    /// probability (used to check that refitting unchanged triangles is the identity).
+    pub fn fingerprint(&self) -> u64 {
+        const PRIME: u64 = 0x0000_0100_0000_01b3;
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |x: u32| {
+            for b in x.to_le_bytes() {
+                h = (h ^ b as u64).wrapping_mul(PRIME);
+            }
+        };
+        eat(self.nodes.len() as u32);
+        for n in self.nodes.iter() {
+            n.bounds.iter().flatten().for_each(|f| eat(f.to_bits()));
+            n.children.iter().for_each(|&c| eat(c));
+            eat(n.valid);
+        }
+        eat(self.packets.len() as u32);
+        for p in self.packets.iter() {
+            p.v.iter()
+                .flatten()
+                .flatten()
+                .for_each(|f| eat(f.to_bits()));
+            p.prims.iter().for_each(|&q| eat(q));
+        }
+        eat(self.root);
+        let (lo, hi) = self.root_bounds.to_arrays();
+        lo.iter().chain(&hi).for_each(|f| eat(f.to_bits()));
+        h
     }
 }
 

@@ -1,0 +1,192 @@
+//! How fast a refitted tree's quality decays under motion: for three procedural animations,
+//! the SAH cost of the frame-0 tree refitted to each of 10 frames against a tree rebuilt for
+//! that frame (same builder), and the refitted 8-wide tree's traced work against the rebuilt
+//! one's. Prints the Markdown table of `docs/refit.md`.
+//!
+//! `cargo run --release -p sahara-traverse --example refit_decay [builder] [size]`
+//! (defaults: `binned`, 100000).
+
+use sahara_builders::{registry, BuildInput, CostModel};
+use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
+use sahara_scene::{Mesh, Procedural};
+use sahara_traverse::{Bvh8, WorkCounters};
+use std::time::Instant;
+
+/// An animation: the triangles of frame `f` (0 = rest pose).
+struct Motion {
+    name: &'static str,
+    what: &'static str,
+    frame: Box<dyn Fn(usize) -> Vec<Triangle>>,
+}
+
+fn motions(size: usize) -> Vec<Motion> {
+    let city = Procedural::City.mesh(size, 1);
+    let diag = city_diag(&city);
+    let jitter_mesh = city.clone();
+    let mut rng = Pcg32::new(3, 3);
+    let dirs: Vec<Vec3A> = (0..city.positions.len())
+        .map(|_| {
+            Vec3A::new(
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+            )
+        })
+        .collect();
+    let jitter = move |f: usize| {
+        // Every vertex moves by up to 0.1% of the scene diagonal per frame, in its own
+        // direction (the mesh tears apart slowly, as under noise).
+        let a = 0.001 * diag * f as f32;
+        let pos: Vec<Vec3A> = jitter_mesh
+            .positions
+            .iter()
+            .zip(&dirs)
+            .map(|(&p, &d)| p + d * a)
+            .collect();
+        Mesh::new(pos, jitter_mesh.indices.clone()).triangles()
+    };
+
+    let sib = Procedural::SphereInBox.mesh(size, 1);
+    let sib_tris = sib.triangles();
+    let centre = sib_tris
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()))
+        .centroid();
+    let rotate = move |f: usize| {
+        // The triangles right of the centre turn about the vertical axis through it, 4° per
+        // frame; the others stay (a part moving through the rest).
+        let (s, c) = (4.0f32 * f as f32).to_radians().sin_cos();
+        sib_tris
+            .iter()
+            .map(|t| {
+                if t.centroid().x <= centre.x {
+                    return *t;
+                }
+                let r = |p: Vec3A| {
+                    let d = p - centre;
+                    centre + Vec3A::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z)
+                };
+                Triangle::new(r(t.v[0]), r(t.v[1]), r(t.v[2]))
+            })
+            .collect()
+    };
+
+    let soup = Procedural::Soup.mesh(size, 2).triangles();
+    let sdiag = soup
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()))
+        .extent()
+        .length();
+    let mut rng = Pcg32::new(4, 4);
+    let vel: Vec<Vec3A> = (0..soup.len())
+        .map(|_| {
+            Vec3A::new(
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+                rng.range_f32(-1.0, 1.0),
+            ) * (0.01 * sdiag)
+        })
+        .collect();
+    let explode = move |f: usize| {
+        // Every triangle flies off in its own direction at up to 1% of the diagonal per
+        // frame (rigidly).
+        soup.iter()
+            .zip(&vel)
+            .map(|(t, &v)| {
+                let d = v * f as f32;
+                Triangle::new(t.v[0] + d, t.v[1] + d, t.v[2] + d)
+            })
+            .collect()
+    };
+    vec![
+        Motion {
+            name: "jitter",
+            what: "city, vertices drift 0.1% of the diagonal per frame",
+            frame: Box::new(jitter),
+        },
+        Motion {
+            name: "rotate",
+            what: "sphere_in_box, the right half turns 4° per frame",
+            frame: Box::new(rotate),
+        },
+        Motion {
+            name: "explode",
+            what: "soup, triangles fly apart at up to 1% of the diagonal per frame",
+            frame: Box::new(explode),
+        },
+    ]
+}
+
+fn city_diag(m: &Mesh) -> f32 {
+    m.positions
+        .iter()
+        .fold(Aabb::EMPTY, |b, &p| b.grown(p))
+        .extent()
+        .length()
+}
+
+/// Rays for the work measurement: random segments through the frame's bounds.
+fn rays(tris: &[Triangle], n: usize) -> Vec<Ray> {
+    let b = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
+    let mut rng = Pcg32::new(7, 3);
+    let mut p = || {
+        Vec3A::new(
+            rng.range_f32(b.min.x, b.max.x),
+            rng.range_f32(b.min.y, b.max.y),
+            rng.range_f32(b.min.z, b.max.z),
+        )
+    };
+    (0..n)
+        .map(|_| {
+            let (o, e) = (p(), p());
+            Ray::new(o, e - o, 0.0, f32::INFINITY)
+        })
+        .collect()
+}
+
+fn work(w: &Bvh8, rays: &[Ray]) -> f64 {
+    let mut c = WorkCounters::default();
+    for r in rays {
+        w.closest_hit(r, &mut c);
+    }
+    // Node tests plus triangle tests per ray (the cost model's two terms, unweighted).
+    (c.inner + c.triangles) as f64 / rays.len() as f64
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let builder_name = args.get(1).map_or("binned", |s| s.as_str()).to_string();
+    let size: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(100_000);
+    let builder = registry::by_name(&builder_name).expect("unknown builder");
+    let cost = CostModel::default();
+    println!("builder `{builder_name}`, about {size} triangles per scene\n");
+    for m in motions(size) {
+        let f0 = (m.frame)(0);
+        let mut tree = builder.build(&BuildInput::new(&f0, cost).unwrap()).unwrap();
+        let mut wide = Bvh8::from_bvh(&tree, &f0);
+        println!("**{}** ({}; {} triangles)\n", m.name, m.what, f0.len());
+        println!(
+            "| frame | SAH refit / rebuilt | work refit / rebuilt (bvh8) | refit ms | rebuild ms |"
+        );
+        println!("|---:|---:|---:|---:|---:|");
+        for f in 0..=10 {
+            let tris = (m.frame)(f);
+            let t = Instant::now();
+            tree.refit_triangles(&tris).unwrap();
+            wide.refit_triangles(&tris).unwrap();
+            let refit_ms = t.elapsed().as_secs_f64() * 1e3;
+            let t = Instant::now();
+            let fresh = builder
+                .build(&BuildInput::new(&tris, cost).unwrap())
+                .unwrap();
+            let fresh_wide = Bvh8::from_bvh(&fresh, &tris);
+            let build_ms = t.elapsed().as_secs_f64() * 1e3;
+            tree.validate(&tris).unwrap();
+            let sah = sahara_metrics::sah(&tree, &cost) / sahara_metrics::sah(&fresh, &cost);
+            let rays = rays(&tris, 20_000);
+            let wr = work(&wide, &rays) / work(&fresh_wide, &rays);
+            println!("| {f} | {sah:.3} | {wr:.3} | {refit_ms:.1} | {build_ms:.1} |");
+        }
+        println!();
+    }
+}

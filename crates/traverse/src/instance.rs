@@ -1,0 +1,375 @@
+//! Instances: a two-level structure, a top-level tree over instances of bottom-level trees.
+//!
+//! An [`Instance`] is a bottom-level tree (an index into the set's [`BottomLevel`] trees, for
+//! example [`Bvh8`]s over triangles) placed in the world by an affine transform. Its world box
+//! is the box of the eight transformed corners of the bottom-level tree's box, widened by a
+//! relative 2^-20 of the transformed coordinates' magnitude to cover the rounding of the
+//! transform. The top-level tree is built over these boxes by any builder (the caller builds
+//! it, typically with `BuildInput::from_boxes` of `sahara-builders`, which this crate does not
+//! depend on) and collapsed into a [`Bvh8`] over boxes ([`WideBvh::from_boxes`]).
+//!
+//! **Tracing.** For an instance reached by the top-level traversal, the ray is taken into
+//! object space with the inverse affine transform (computed once, in `f32`, by glam): origin
+//! and direction are transformed, the direction is **not renormalised** and `tmin`, `tmax`
+//! are kept. So the object-space `t` of a hit is its world-space `t` (up to the rounding of
+//! the inverse transform), and distances of different instances compare directly: the
+//! closest hit over all instances is the nearest of their closest hits.
+//!
+//! **Exactness.** The top level is the user-primitive traversal of [`crate::custom`]: an
+//! instance is a primitive whose box is its world box and whose intersection callback is the
+//! bottom-level closest hit of the object-space ray (which finds the same hit for any `tmax` at
+//! least its distance, as the callbacks must). Hits therefore pass the hit rule of
+//! [`crate::custom::accept_primitive_hit`] (the bottom level's `t` clamped into the instance's
+//! world-box span: with the padding above this almost never changes it), and ties go to the
+//! lowest instance index, then (inside the bottom level) to the lowest primitive index. The
+//! result equals, bit for bit, the brute-force loop over all instances that applies the same
+//! transforms and the same rule ([`InstanceSet::object_ray`], [`InstanceSet::world_boxes`]).
+//! Any-hit queries accept an instance when its bottom level reports a hit for the object-space
+//! ray and its world box passes the box test of the culling interval, `[lower_distance(tmin),
+//! cull_distance(tmax)]`.
+//!
+//! Against flattening the instances into one mesh (transforming the vertices instead of the
+//! rays) the answers agree up to rounding: the two round differently, so hits on or near shared
+//! edges can change triangle, and distances differ in the last bits (the tests state the
+//! tolerance).
+//!
+//! ```
+//! use sahara_bvh::{Bvh, Node};
+//! use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+//! use sahara_traverse::instance::{Instance, InstanceSet};
+//! use sahara_traverse::{Bvh8, NoStats};
+//! use glam::{Affine3A, Vec3};
+//!
+//! let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0))];
+//! let blas_tree = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let blas = Bvh8::from_bvh(&blas_tree, &tris);
+//! let instances = vec![
+//!     Instance { blas: 0, transform: Affine3A::from_translation(Vec3::new(0.0, 0.0, 5.0)) },
+//!     Instance { blas: 0, transform: Affine3A::from_translation(Vec3::new(0.0, 0.0, 2.0)) },
+//! ];
+//! // A top-level tree over the two world boxes (any builder would do).
+//! let top = |boxes: &[Aabb]| Bvh {
+//!     nodes: vec![Node::inner(&boxes[0].union(&boxes[1]), 2), Node::leaf(&boxes[0], 0, 1), Node::leaf(&boxes[1], 1, 1)],
+//!     prim_indices: vec![0, 1],
+//!     spatial_splits: false,
+//! };
+//! let set = InstanceSet::new(vec![blas], instances, top).unwrap();
+//! let hit = set.closest_hit(&Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY), &mut NoStats).unwrap();
+//! assert_eq!((hit.instance, hit.prim, hit.t), (1, 0, 2.0));
+//! ```
+
+use crate::custom::{primitive_span, PrimHit};
+use crate::{Bvh8, Hit, NoStats, TraversalStats, WideBvh};
+use glam::{Affine3A, Vec3A};
+use sahara_bvh::{Bvh, ValidationError};
+use sahara_geom::intersect::{cull_distance, intersect_aabb, lower_distance};
+use sahara_geom::{Aabb, Ray};
+
+/// A bottom-level tree an [`InstanceSet`] can place: closest and any hit of an object-space
+/// ray, and its object-space bounds.
+///
+/// `closest_hit` must return the closest hit in `[tmin, tmax]` (lowest primitive index on
+/// ties), so that for any `tmax` at least that hit's distance the answer is the same: the
+/// contract of [`crate::custom`]'s callbacks, which every kernel of this crate meets.
+pub trait BottomLevel {
+    /// Closest hit of an object-space ray ([`Hit::MISS`] for none).
+    fn closest_hit(&self, ray: &Ray) -> Hit;
+    /// True when the object-space ray hits something in `[tmin, tmax]`.
+    fn any_hit(&self, ray: &Ray) -> bool;
+    /// Object-space bounds (empty for an empty tree).
+    fn bounds(&self) -> Aabb;
+}
+
+impl<const W: usize> BottomLevel for WideBvh<W> {
+    #[inline]
+    fn closest_hit(&self, ray: &Ray) -> Hit {
+        WideBvh::closest_hit(self, ray, &mut NoStats)
+    }
+    #[inline]
+    fn any_hit(&self, ray: &Ray) -> bool {
+        WideBvh::any_hit(self, ray, &mut NoStats)
+    }
+    fn bounds(&self) -> Aabb {
+        WideBvh::bounds(self)
+    }
+}
+
+/// One placed copy of a bottom-level tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index of the bottom-level tree in the set.
+    pub blas: u32,
+    /// Object to world.
+    pub transform: Affine3A,
+}
+
+/// A closest hit through instances.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InstanceHit {
+    /// Ray parameter (world and object space alike: directions are not renormalised).
+    pub t: f32,
+    /// The instance hit.
+    pub instance: u32,
+    /// The primitive hit in the instance's bottom-level tree.
+    pub prim: u32,
+    /// Barycentric weight of vertex 1 (as [`Hit::u`]).
+    pub u: f32,
+    /// Barycentric weight of vertex 2 (as [`Hit::v`]).
+    pub v: f32,
+}
+
+/// Why [`InstanceSet::new`] refused its input.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InstanceError {
+    /// An instance names a bottom-level tree that does not exist.
+    #[error("instance {instance} uses bottom-level tree {blas}, but there are only {count}")]
+    UnknownBlas {
+        /// The instance.
+        instance: usize,
+        /// The tree it names.
+        blas: u32,
+        /// How many trees there are.
+        count: usize,
+    },
+    /// An instance's transform has a NaN or infinite entry, or cannot be inverted (its inverse
+    /// is not finite).
+    #[error("instance {instance} has a non-finite or singular transform")]
+    BadTransform {
+        /// The instance.
+        instance: usize,
+    },
+    /// The top-level tree given by the builder is broken.
+    #[error("the top-level tree is invalid: {0}")]
+    TopLevel(#[from] ValidationError),
+    /// The top-level tree references an instance that does not exist, or misses one.
+    #[error("the top-level tree does not reference each of the {0} instances")]
+    TopLevelCoverage(usize),
+}
+
+/// A two-level scene: bottom-level trees, their instances and a top-level [`Bvh8`] over the
+/// instances' world boxes (see the [module documentation](self)).
+#[derive(Clone, Debug)]
+pub struct InstanceSet<B: BottomLevel = Bvh8> {
+    blases: Vec<B>,
+    instances: Vec<Instance>,
+    inverse: Vec<Affine3A>,
+    boxes: Vec<Aabb>,
+    top: Bvh,
+    top_wide: Bvh8,
+}
+
+/// The world box of `local` under `m`: the box of the transformed corners, widened by 2^-20 of
+/// the magnitude of the transform's terms on each axis (`|M| · max(|min|, |max|) + |t|`).
+fn world_box(m: &Affine3A, local: &Aabb) -> Aabb {
+    if local.is_empty() {
+        let t = m.translation;
+        return Aabb::new(t, t);
+    }
+    let mut b = Aabb::EMPTY;
+    for c in 0..8 {
+        let p = Vec3A::new(
+            if c & 1 == 0 { local.min.x } else { local.max.x },
+            if c & 2 == 0 { local.min.y } else { local.max.y },
+            if c & 4 == 0 { local.min.z } else { local.max.z },
+        );
+        b.grow(m.transform_point3a(p));
+    }
+    let mag = local.min.abs().max(local.max.abs());
+    let abs = glam::Mat3A::from_cols(
+        m.matrix3.x_axis.abs(),
+        m.matrix3.y_axis.abs(),
+        m.matrix3.z_axis.abs(),
+    );
+    let pad = (abs * mag + m.translation.abs()) * (1.0 / 1_048_576.0);
+    Aabb::new(b.min - pad, b.max + pad)
+}
+
+impl<B: BottomLevel> InstanceSet<B> {
+    /// Places `instances` of the bottom-level trees `blases` and builds the top-level tree:
+    /// `build_top(world_boxes)` returns a binary tree over the instances' world boxes (one
+    /// primitive per instance, in order), for example a registered builder run on
+    /// `BuildInput::from_boxes(world_boxes, cost)`; it is checked and collapsed into a
+    /// [`Bvh8`]. An instance of an empty tree gets the point box at its translation (it is
+    /// never hit).
+    pub fn new(
+        blases: Vec<B>,
+        instances: Vec<Instance>,
+        build_top: impl FnOnce(&[Aabb]) -> Bvh,
+    ) -> Result<Self, InstanceError> {
+        let mut inverse = Vec::with_capacity(instances.len());
+        let mut boxes = Vec::with_capacity(instances.len());
+        for (i, inst) in instances.iter().enumerate() {
+            let Some(blas) = blases.get(inst.blas as usize) else {
+                return Err(InstanceError::UnknownBlas {
+                    instance: i,
+                    blas: inst.blas,
+                    count: blases.len(),
+                });
+            };
+            let inv = inst.transform.inverse();
+            let b = world_box(&inst.transform, &blas.bounds());
+            let finite = inst.transform.is_finite()
+                && inv.is_finite()
+                && b.min.is_finite()
+                && b.max.is_finite();
+            if !finite {
+                return Err(InstanceError::BadTransform { instance: i });
+            }
+            inverse.push(inv);
+            boxes.push(b);
+        }
+        let top = build_top(&boxes);
+        top.validate_structure()?;
+        let mut seen = vec![false; instances.len()];
+        for &p in &top.prim_indices {
+            match seen.get_mut(p as usize) {
+                Some(s) => *s = true,
+                None => return Err(InstanceError::TopLevelCoverage(instances.len())),
+            }
+        }
+        if seen.iter().any(|&s| !s) {
+            return Err(InstanceError::TopLevelCoverage(instances.len()));
+        }
+        let top_wide = Bvh8::from_boxes(&top, &boxes);
+        Ok(Self {
+            blases,
+            instances,
+            inverse,
+            boxes,
+            top,
+            top_wide,
+        })
+    }
+
+    /// The instances.
+    pub fn instances(&self) -> &[Instance] {
+        &self.instances
+    }
+
+    /// The bottom-level trees.
+    pub fn blases(&self) -> &[B] {
+        &self.blases
+    }
+
+    /// The instances' world boxes (the top level's primitive boxes).
+    pub fn world_boxes(&self) -> &[Aabb] {
+        &self.boxes
+    }
+
+    /// The binary top-level tree (before its collapse into a [`Bvh8`]).
+    pub fn top_level(&self) -> &Bvh {
+        &self.top
+    }
+
+    /// The world-space ray `ray` in the object space of instance `instance`, with interval
+    /// `[ray.tmin, tmax]`: origin and direction through the inverse transform, the direction
+    /// not renormalised. Every query uses exactly this ray.
+    #[inline]
+    pub fn object_ray(&self, instance: u32, ray: &Ray, tmax: f32) -> Ray {
+        let inv = &self.inverse[instance as usize];
+        Ray::new(
+            inv.transform_point3a(ray.origin),
+            inv.transform_vector3a(ray.direction),
+            ray.tmin,
+            tmax,
+        )
+    }
+
+    /// The bottom-level closest hit of instance `i` for a world ray with interval `[ray.tmin,
+    /// tmax]`: the top level's intersection callback.
+    #[inline]
+    fn instance_closest(&self, ray: &Ray, i: u32, tmax: f32) -> Option<(f32, (u32, f32, f32))> {
+        let blas = &self.blases[self.instances[i as usize].blas as usize];
+        let h = blas.closest_hit(&self.object_ray(i, ray, tmax));
+        h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+    }
+
+    /// Closest hit through the instances; `stats` counts the top level's work (nodes visited,
+    /// instances tested). Invalid rays miss.
+    pub fn closest_hit<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> Option<InstanceHit> {
+        let h = self.top_wide.closest_hit_custom(
+            &self.boxes,
+            ray,
+            |r: &Ray, i, _tmin, tmax| self.instance_closest(r, i, tmax),
+            stats,
+        )?;
+        Some(to_instance_hit(h))
+    }
+
+    /// Any hit through the instances: true when some instance's bottom level reports a hit of
+    /// the object-space ray and the instance's world box passes the culling box test (see the
+    /// [module documentation](self)). Invalid rays miss.
+    pub fn any_hit<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        self.top_wide
+            .any_hit_occluders(ray, |i| self.instance_any(ray, i), stats)
+    }
+
+    /// The any-hit acceptance of instance `i`.
+    #[inline]
+    fn instance_any(&self, ray: &Ray, i: u32) -> bool {
+        let b = &self.boxes[i as usize];
+        let (lo, hi) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
+        intersect_aabb(ray.origin, ray.inv_direction, lo, hi, b).is_some() && {
+            let blas = &self.blases[self.instances[i as usize].blas as usize];
+            blas.any_hit(&self.object_ray(i, ray, ray.tmax))
+        }
+    }
+
+    /// The two-level brute-force reference of [`InstanceSet::closest_hit`]: every instance in
+    /// index order, the ray taken into its object space by [`InstanceSet::object_ray`],
+    /// `closest(blas, object_ray)` (for example brute force over the bottom level's
+    /// triangles), the same hit rule and tie-break.
+    pub fn brute_closest_hit(
+        &self,
+        ray: &Ray,
+        mut closest: impl FnMut(u32, &Ray) -> Hit,
+    ) -> Option<InstanceHit> {
+        crate::custom::brute_closest_hit(&self.boxes, ray, |r: &Ray, i, _tmin, tmax| {
+            let h = closest(
+                self.instances[i as usize].blas,
+                &self.object_ray(i, r, tmax),
+            );
+            h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+        })
+        .map(to_instance_hit)
+    }
+
+    /// The brute-force reference of [`InstanceSet::any_hit`], with `any(blas, object_ray)` the
+    /// bottom-level any-hit query.
+    pub fn brute_any_hit(&self, ray: &Ray, mut any: impl FnMut(u32, &Ray) -> bool) -> bool {
+        if !ray.is_valid() {
+            return false;
+        }
+        let (lo, hi) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
+        (0..self.instances.len() as u32).any(|i| {
+            intersect_aabb(
+                ray.origin,
+                ray.inv_direction,
+                lo,
+                hi,
+                &self.boxes[i as usize],
+            )
+            .is_some()
+                && any(
+                    self.instances[i as usize].blas,
+                    &self.object_ray(i, ray, ray.tmax),
+                )
+        })
+    }
+
+    /// The computed span of the ray through instance `i`'s world box (see
+    /// [`crate::custom::primitive_span`]).
+    pub fn world_span(&self, ray: &Ray, i: u32) -> (f32, f32) {
+        primitive_span(ray, &self.boxes[i as usize])
+    }
+}
+
+fn to_instance_hit(h: PrimHit<(u32, f32, f32)>) -> InstanceHit {
+    InstanceHit {
+        t: h.t,
+        instance: h.prim,
+        prim: h.data.0,
+        u: h.data.1,
+        v: h.data.2,
+    }
+}
