@@ -370,6 +370,7 @@ fn heat_maps(d: &mut Doc, c: &Ctx) {
     ));
     for sc in &c.r.scenes {
         d.h(3, sc.name.clone());
+        d.p(format!("Camera ({}): `{}`.", sc.camera_source, sc.camera));
         d.p(format!(
             "Top of the colour scale: {:.0} work units per pixel.",
             sc.heat_scale
@@ -844,6 +845,8 @@ mod tests {
                     })
                     .collect(),
                 heat_scale: 40.0 + 7.5 * i as f64,
+                camera: "eye=0,0,5 target=0,0,0 up=0,1,0 fov=60".into(),
+                camera_source: "generator".into(),
             })
             .collect();
         let mut builds = Vec::new();
