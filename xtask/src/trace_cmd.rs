@@ -15,6 +15,10 @@ pub struct Args {
     /// Catalog name or path to .obj/.obj.gz/.gltf/.glb.
     #[arg(long)]
     scene: String,
+    /// The camera of the primary rays: `eye=x,y,z target=x,y,z up=x,y,z fov=deg` (up and fov
+    /// optional; default: the scene's own, or a placed one, see docs/cameras.md).
+    #[arg(long, value_parser = util::parse_camera)]
+    camera: Option<sahara_scene::Camera>,
     /// Registered builder name.
     #[arg(long)]
     builder: String,
@@ -196,7 +200,11 @@ pub fn trace_camera(c: &sahara_scene::Camera) -> sahara_trace::Camera {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let scene = util::load_scene(&a.scene)?;
+    let catalog = sahara_scene::Catalog::discover();
+    let scene = util::load_scene_with(&catalog, &a.scene, a.camera.as_ref())?;
+    if !a.json {
+        eprintln!("camera ({}): {}", scene.camera_source, scene.camera);
+    }
     let builder = util::builder(&a.builder)?;
     let input =
         sahara_builders::BuildInput::new(&scene.triangles, sahara_builders::CostModel::default())?;

@@ -99,6 +99,9 @@ pub struct LoadedScene {
     pub name: String,
     pub triangles: Vec<sahara_geom::Triangle>,
     pub camera: sahara_scene::Camera,
+    /// Where `camera` comes from, for reports: `generator`, `cameras.tsv`, `framing`,
+    /// `command line` or `placed (interior, 83% good rays)` (docs/cameras.md).
+    pub camera_source: String,
 }
 
 /// Loads a catalog scene by name (or a path) and converts it to triangles.
@@ -109,12 +112,69 @@ pub fn load_scene(name: &str) -> Result<LoadedScene> {
 
 /// As [`load_scene`], with a catalog already discovered.
 pub fn load_scene_from(catalog: &sahara_scene::Catalog, name: &str) -> Result<LoadedScene> {
+    load_scene_with(catalog, name, None)
+}
+
+/// As [`load_scene_from`], with the camera `camera` if given (`--camera`). Without one, a
+/// scene given by path (not a catalog name) that has no camera of its own (no row in a
+/// `cameras.tsv` beside it, nor among the named scenes) gets a placed camera
+/// ([`placed_camera`]); catalog scenes keep theirs (the framing, for those without one, so
+/// that published results stay comparable).
+pub fn load_scene_with(
+    catalog: &sahara_scene::Catalog,
+    name: &str,
+    camera: Option<&sahara_scene::Camera>,
+) -> Result<LoadedScene> {
     let scene = catalog
         .load(name)
         .with_context(|| format!("loading scene '{name}'"))?;
+    let triangles = scene.triangles();
+    let by_path = catalog.get(name).is_none();
+    let (camera, camera_source) = match camera {
+        Some(c) => (*c, sahara_scene::CameraSource::Given.to_string()),
+        None if by_path && scene.camera_source == sahara_scene::CameraSource::Framing => {
+            let (c, label) = placed_camera(&triangles)?;
+            eprintln!("{}: no camera known, {label}: {c}", scene.name);
+            (c, label)
+        }
+        None => (scene.camera, scene.camera_source.to_string()),
+    };
     Ok(LoadedScene {
-        triangles: scene.triangles(),
-        camera: scene.camera,
+        triangles,
+        camera,
+        camera_source,
         name: scene.name,
     })
+}
+
+/// A camera placed for `tris` (docs/cameras.md): the up axis detected from the triangles'
+/// normals (`UpAxis::detect`), then `sahara_trace::place_camera` over a binned-SAH tree.
+/// Returns the camera and a label for reports (`placed (interior, 83% good rays)`).
+pub fn placed_camera(tris: &[sahara_geom::Triangle]) -> Result<(sahara_scene::Camera, String)> {
+    let up = sahara_scene::UpAxis::detect(tris);
+    let input = sahara_builders::BuildInput::new(tris, sahara_builders::CostModel::default())?;
+    let bvh = builder("binned")?.build(&input)?;
+    let p = sahara_trace::place_camera(
+        &sahara_trace::Bvh2Tracer::new(&bvh, tris),
+        tris,
+        up.vector(),
+    );
+    let kind = match p.kind {
+        sahara_trace::PlacementKind::Interior => "interior",
+        sahara_trace::PlacementKind::Exterior => "exterior",
+    };
+    let c = p.camera;
+    Ok((
+        sahara_scene::Camera::new(c.eye, c.target, c.up, c.fov_y_degrees),
+        format!(
+            "placed ({kind}, {:?} up, {:.0}% good rays)",
+            up,
+            100.0 * p.score
+        ),
+    ))
+}
+
+/// Parses `--camera` (`eye=x,y,z target=x,y,z up=x,y,z fov=deg`) for clap.
+pub fn parse_camera(s: &str) -> std::result::Result<sahara_scene::Camera, String> {
+    s.parse::<sahara_scene::Camera>().map_err(|e| e.to_string())
 }

@@ -467,10 +467,28 @@ impl Catalog {
                     }
                 }
                 let bounds = mesh.bounds();
-                let camera = entry.camera.unwrap_or_else(|| match &self.named {
-                    Some(named) => named.camera(&entry.name, &bounds),
-                    None => default_camera(&entry.name, &bounds),
-                });
+                let known = entry
+                    .camera
+                    .or_else(|| self.named.as_ref().and_then(|n| n.get(&entry.name)));
+                let (camera, camera_source) = match known {
+                    Some(c) => (c, crate::CameraSource::Table),
+                    None => match &self.named {
+                        Some(named) => (
+                            named.camera(&entry.name, &bounds),
+                            crate::CameraSource::Framing,
+                        ),
+                        None => {
+                            let c = default_camera(&entry.name, &bounds);
+                            let source = if named_cameras().0.iter().any(|(n, _)| *n == entry.name)
+                            {
+                                crate::CameraSource::Table
+                            } else {
+                                crate::CameraSource::Framing
+                            };
+                            (c, source)
+                        }
+                    },
+                };
                 Ok(Scene {
                     name: entry.name.clone(),
                     mesh,
@@ -479,6 +497,7 @@ impl Catalog {
                         format: *format,
                     },
                     camera,
+                    camera_source,
                 })
             }
         }

@@ -5,9 +5,8 @@
 //!   zero-area and index-degenerate separately);
 //! * loaders: [`load_mesh`] by extension, or [`load_obj`], [`load_obj_gz`], [`load_gltf`]
 //!   (`.gltf` and `.glb`), and the in-memory [`parse_obj`], [`parse_gltf`], [`parse_mesh`].
-//!   The OBJ reader is a strict hand-written one (fast: the 871k-triangle dragon loads in
-//!   well under a second in release mode); malformed input is a [`SceneError`] naming the
-//!   file and the line, vertex or triangle, never a panic;
+//!   The OBJ reader is `tobj` behind a strict validation pass of this crate; malformed input
+//!   is a [`SceneError`] naming the file and the line, vertex or triangle, never a panic;
 //! * procedural scenes ([`Procedural`], [`sphere_in_box`], [`soup`], [`teapot_stadium`],
 //!   [`hairball`], [`city`], [`clustered`]), deterministic from a seed and an approximate
 //!   triangle count, and closed shapes for tests ([`closed_box`], [`tessellated_sphere`],
@@ -52,7 +51,7 @@ mod procedural;
 mod scene;
 mod shapes;
 
-pub use camera::{Camera, UpAxis};
+pub use camera::{Camera, CameraSpecError, UpAxis};
 pub use catalog::{
     default_camera, named_cameras, parse_cameras, parse_manifest, search_dirs, sha256_file,
     workspace_root, Catalog, CatalogEntry, CatalogWarning, EntryKind, ManifestRow, Origin,
@@ -66,7 +65,7 @@ pub use obj::{load_obj, load_obj_gz, parse_obj, read_obj};
 pub use procedural::{
     city, clustered, hairball, soup, sphere_in_box, teapot_stadium, Procedural, DEFAULT_SEED,
 };
-pub use scene::{Scene, SceneSource};
+pub use scene::{CameraSource, Scene, SceneSource};
 pub use shapes::{closed_box, revolve, tessellated_sphere, torus, uv_sphere};
 
 pub use sahara_geom::{Aabb, Triangle, Vec3A};

@@ -127,6 +127,7 @@ impl Procedural {
                 seed,
             },
             camera,
+            camera_source: crate::CameraSource::Generator,
         }
     }
 

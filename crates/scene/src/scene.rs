@@ -4,7 +4,10 @@ use std::path::{Path, PathBuf};
 
 use sahara_geom::{Aabb, Triangle};
 
-use crate::{default_camera, load_mesh, Camera, Format, Mesh, Procedural, SceneError};
+use crate::{
+    default_camera, load_mesh, named_cameras, parse_cameras, Camera, Format, Mesh, Procedural,
+    SceneError,
+};
 
 /// Where a scene comes from.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,6 +40,39 @@ impl std::fmt::Display for SceneSource {
     }
 }
 
+/// Where a scene's camera comes from (shown in reports, so a reader knows what the primary
+/// rays looked at).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CameraSource {
+    /// The procedural generator's camera.
+    Generator,
+    /// A row of a `cameras.tsv`: the scene's folder's, the one beside a file given by path,
+    /// or the named scenes' table (`scenes/cameras.tsv`).
+    Table,
+    /// No camera is known for the scene: [`Camera::framing`] of its bounds with y up. A
+    /// program that can trace rays should replace it by a placed camera (the xtask does,
+    /// with `sahara_trace::place_camera`).
+    #[default]
+    Framing,
+    /// Given by the caller (e.g. `--camera` on the command line).
+    Given,
+    /// Chosen by camera placement from the scene's geometry.
+    Placed,
+}
+
+impl std::fmt::Display for CameraSource {
+    /// `generator`, `cameras.tsv`, `framing`, `command line` or `placed`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            CameraSource::Generator => "generator",
+            CameraSource::Table => "cameras.tsv",
+            CameraSource::Framing => "framing",
+            CameraSource::Given => "command line",
+            CameraSource::Placed => "placed",
+        })
+    }
+}
+
 /// A scene: a name, a valid triangle mesh, where it comes from, and a default camera.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -49,11 +85,15 @@ pub struct Scene {
     pub source: SceneSource,
     /// The default view.
     pub camera: Camera,
+    /// Where [`Scene::camera`] comes from.
+    pub camera_source: CameraSource,
 }
 
 impl Scene {
     /// Loads a `.obj`, `.obj.gz`, `.gltf` or `.glb` file as a scene named after its stem,
-    /// with the default camera for that name ([`default_camera`]).
+    /// with the camera of its row (by stem) in a `cameras.tsv` beside the file
+    /// ([`parse_cameras`]; a file that cannot be read or parsed, or that has no such row, is
+    /// passed over), else the default camera for that name ([`default_camera`]).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let format = Format::from_path(path).ok_or_else(|| SceneError::UnsupportedFormat {
@@ -61,7 +101,24 @@ impl Scene {
         })?;
         let mesh = load_mesh(path)?;
         let name = format.stem(path);
-        let camera = default_camera(&name, &mesh.bounds());
+        let beside = path
+            .parent()
+            .map(|d| d.join("cameras.tsv"))
+            .and_then(|t| std::fs::read_to_string(&t).ok().map(|text| (t, text)))
+            .and_then(|(t, text)| {
+                let (rows, _warnings) = parse_cameras(&text, &t);
+                rows.into_iter().find(|(n, _)| *n == name).map(|(_, c)| c)
+            });
+        let (camera, camera_source) = match beside {
+            Some(c) => (c, CameraSource::Table),
+            None => {
+                let named = named_cameras().0;
+                match named.into_iter().find(|(n, _)| *n == name) {
+                    Some((_, c)) => (c, CameraSource::Table),
+                    None => (default_camera(&name, &mesh.bounds()), CameraSource::Framing),
+                }
+            }
+        };
         Ok(Scene {
             name,
             mesh,
@@ -70,6 +127,7 @@ impl Scene {
                 format,
             },
             camera,
+            camera_source,
         })
     }
 

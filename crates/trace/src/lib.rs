@@ -60,6 +60,7 @@ mod batch;
 mod camera;
 mod error;
 mod files;
+mod placement;
 mod rays;
 mod render;
 mod timing;
@@ -76,6 +77,7 @@ pub use files::{
     decode_hits, decode_rays, encode_hits, encode_rays, read_hits, read_rays, write_hits,
     write_rays, HIT_RECORD_BYTES, RAY_RECORD_BYTES,
 };
+pub use placement::{place_camera, Placement, PlacementKind};
 pub use rays::{
     cosine_hemisphere, offset_epsilon, ray_rng, scene_bounds, ParseRayKindError, RayKind, RaySet,
     AO_DISTANCE_FRACTION, OFFSET_SCALE,

@@ -35,6 +35,11 @@ pub struct Args {
     /// Scenes (catalog names or paths; default: see `--quick`).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// The camera of every scene of the run: `eye=x,y,z target=x,y,z up=x,y,z fov=deg` (up
+    /// and fov optional). Default: each scene's own; a scene given by path without one gets
+    /// its row in a `cameras.tsv` beside it, else a placed camera (docs/cameras.md).
+    #[arg(long, value_parser = crate::util::parse_camera)]
+    pub camera: Option<sahara_scene::Camera>,
     /// Builders (default: every registered builder practical at the scene sizes).
     #[arg(long, value_delimiter = ',')]
     pub builders: Vec<String>,
@@ -114,6 +119,10 @@ pub struct SceneInfo {
     pub diff_maps: Vec<(String, String)>,
     /// The work difference per pixel at either end of the difference maps' colour scale.
     pub diff_scale: f64,
+    /// The camera of the primary rays (`eye=… target=… up=… fov=…`).
+    pub camera: String,
+    /// Where it comes from (`generator`, `cameras.tsv`, `command line`, `placed (…)`, …).
+    pub camera_source: String,
 }
 
 /// A trace measurement with its comparisons.
@@ -379,7 +388,7 @@ pub fn run(a: Args) -> Result<()> {
     let mut skipped: Vec<String> = Vec::new();
     for scene_name in &s.scenes {
         status(&bar, format!("loading {scene_name}"));
-        let scene = match util::load_scene_from(&catalog, scene_name) {
+        let scene = match util::load_scene_with(&catalog, scene_name, a.camera.as_ref()) {
             Ok(sc) => sc,
             Err(e) => {
                 eprintln!("skipping scene {scene_name}: {e:#}");
@@ -435,6 +444,8 @@ pub fn run(a: Args) -> Result<()> {
             heat_scale: 1.0,
             diff_maps: Vec::new(),
             diff_scale: 1.0,
+            camera: scene.camera.to_string(),
+            camera_source: scene.camera_source.clone(),
         };
         let samples: Vec<(String, Vec<sahara_geom::Ray>)> = sets
             .iter()

@@ -516,6 +516,7 @@ fn heat_maps(d: &mut Doc, c: &Ctx) {
     ));
     for sc in &c.r.scenes {
         d.h(3, sc.name.clone());
+        d.p(format!("Camera ({}): `{}`.", sc.camera_source, sc.camera));
         d.p(format!(
             "Top of the heat maps' colour scale: {:.0} work units per pixel; difference maps: ±{:.0}.",
             sc.heat_scale, sc.diff_scale
@@ -1047,6 +1048,8 @@ mod tests {
                     Vec::new()
                 },
                 diff_scale: 12.0 + i as f64,
+                camera: "eye=0,0,5 target=0,0,0 up=0,1,0 fov=60".into(),
+                camera_source: "generator".into(),
             })
             .collect();
         let mut builds = Vec::new();
