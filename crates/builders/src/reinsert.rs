@@ -211,6 +211,11 @@ pub fn optimize_with_stats(
     config: &ReinsertConfig,
 ) -> Result<(Bvh, ReinsertStats), ReinsertError> {
     config.check()?;
+    if bvh.nodes.is_empty() {
+        return Ok((bvh.clone(), ReinsertStats::default()));
+    }
+    // The structure is checked before anything walks the tree.
+    let mut tree = Tree::from_bvh(bvh)?;
     let before = sahara_metrics::sah(bvh, cost);
     if bvh.nodes.len() < 5 {
         // Fewer than three leaves: no move changes anything.
@@ -221,7 +226,6 @@ pub fn optimize_with_stats(
         };
         return Ok((bvh.clone(), stats));
     }
-    let mut tree = Tree::from_bvh(bvh)?;
     let mut stats = tree.run(config);
     let out = tree.to_bvh(bvh);
     let after = sahara_metrics::sah(&out, cost);
@@ -588,8 +592,12 @@ impl Tree {
 
     fn run(&mut self, config: &ReinsertConfig) -> ReinsertStats {
         let n = self.boxes.len();
-        let batch = ((n as f64 * config.batch_fraction).ceil() as usize).clamp(64, n);
-        let pool = ((n as f64 * config.pool_fraction).ceil() as usize).clamp(batch, n);
+        let batch = ((n as f64 * config.batch_fraction).ceil() as usize)
+            .max(64)
+            .min(n);
+        let pool = ((n as f64 * config.pool_fraction).ceil() as usize)
+            .max(batch)
+            .min(n);
         let windows = pool.div_ceil(batch);
         let mut order = self.preorder();
         let mut cost = self.inner_area(&order);
