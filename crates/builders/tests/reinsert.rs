@@ -155,8 +155,9 @@ fn lowers_the_sweep_tree_by_the_measured_margin() {
     assert!(drop >= MARGIN, "SAH drop {drop} below {MARGIN}");
 }
 
-/// Measured SAH drop on sphere_in_box(20000, seed 1), less a safety margin.
-const MARGIN: f64 = 0.0;
+/// Measured SAH drop on sphere_in_box(20000, seed 1): 2.28 % (39.6372 -> 38.7333); asserted
+/// with a safety margin.
+const MARGIN: f64 = 0.015;
 
 #[test]
 fn rejects_bad_config_and_malformed_trees() {
