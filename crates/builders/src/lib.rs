@@ -28,8 +28,10 @@
 
 pub mod binned;
 mod input;
+pub mod ploc;
 pub mod popov;
 pub mod registry;
+pub mod reinsert;
 pub mod sbvh;
 pub mod split;
 pub mod sweep;

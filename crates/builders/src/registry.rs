@@ -88,6 +88,8 @@ fn built_in() -> Vec<Entry> {
     v.extend(crate::tsah::registry_entries());
     v.extend(crate::tsah_spatial::registry_entries());
     v.extend(crate::popov::registry_entries());
+    v.extend(crate::reinsert::registry_entries());
+    v.extend(crate::ploc::registry_entries());
     v
 }
 
