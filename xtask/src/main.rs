@@ -1,6 +1,8 @@
 //! `cargo xtask`: the project's tasks (see README.md and the command-line contract in
 //! `docs/command-line.md`).
 
+mod alloc_count;
+mod build_bench;
 mod bvh_cmd;
 #[cfg(feature = "embree")]
 mod embree;
@@ -15,6 +17,10 @@ mod trace_cmd;
 mod util;
 
 use clap::{Parser, Subcommand};
+
+/// Counts heap bytes for the build-memory figures (`alloc_count`).
+#[global_allocator]
+static ALLOC: alloc_count::Counting = alloc_count::Counting;
 
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "sahara project tasks")]
@@ -31,6 +37,9 @@ enum Cmd {
     Builders,
     /// Build a BVH and report build time and tree statistics.
     Bvh(bvh_cmd::Args),
+    /// Time builders (and Embree's builder, with the `embree` feature) alternating in one
+    /// window: medians, spreads and ratios (docs/embree.md).
+    BuildBench(build_bench::Args),
     /// Trace a ray set and report speed and work per ray.
     Trace(trace_cmd::Args),
     /// Run the evaluation matrix and write the report.
@@ -56,6 +65,7 @@ fn main() {
         Cmd::Scenes(a) => scenes_cmd::run(a),
         Cmd::Builders => bvh_cmd::list_builders(),
         Cmd::Bvh(a) => bvh_cmd::run(a),
+        Cmd::BuildBench(a) => build_bench::run(a),
         Cmd::Trace(a) => trace_cmd::run(a),
         Cmd::Eval(a) => eval::run(a),
         Cmd::Scaling(a) => scaling::run(a),
