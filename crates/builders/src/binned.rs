@@ -485,6 +485,8 @@ impl<'a> BinnedRule<'a> {
         let mut rc = Aabb::EMPTY;
         let mut goes_left = |r: &PrimRef| {
             let c = r.centroid();
+            // Negated on purpose: NaN goes left, as `BinMap::bin` puts it in bin 0.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
             let left = !((c[axis] - min) * scale >= plane);
             if left {
                 lc.grow(c);
