@@ -429,3 +429,98 @@ mod tests {
         assert_eq!(t.closest_hit_fast(&r), Hit::MISS);
     }
 }
+
+/// Times Embree's own BVH builds for `cargo xtask build-bench`: one device (created once, so
+/// that its thread pool is up before the first timed build) and, per build, a new scene with
+/// one triangle geometry, of which only `rtcCommitScene` is timed (the BVH build; Embree
+/// builds its 8-wide tree directly on this machine). See docs/embree.md.
+pub struct BuildTimer {
+    device: sys::RTCDevice,
+}
+
+// SAFETY: the device is only used by the thread that owns the timer (the type is not shared).
+unsafe impl Send for BuildTimer {}
+
+impl Drop for BuildTimer {
+    fn drop(&mut self) {
+        // SAFETY: created by `new`, released exactly once.
+        unsafe { sys::rtcReleaseDevice(self.device) };
+    }
+}
+
+/// `low|medium|high` as the build quality of [`Config`].
+pub fn parse_quality(name: &str) -> Result<u8> {
+    Ok(match name.to_ascii_lowercase().as_str() {
+        "low" => 0,
+        "medium" => 1,
+        "high" => 2,
+        other => bail!("Embree build quality '{other}' is not low, medium or high"),
+    })
+}
+
+impl BuildTimer {
+    /// A device with `threads` build threads (`threads=N` in the device configuration,
+    /// followed by `SAHARA_EMBREE_CONFIG` if set).
+    pub fn new(threads: usize) -> Result<Self> {
+        let extra = std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default();
+        let mut config = format!("threads={}", threads.max(1));
+        if !extra.is_empty() {
+            config.push(',');
+            config.push_str(&extra);
+        }
+        let config = CString::new(config).context("SAHARA_EMBREE_CONFIG contains a NUL byte")?;
+        // SAFETY: a NUL-terminated configuration string.
+        let device = unsafe { sys::rtcNewDevice(config.as_ptr()) };
+        if device.is_null() {
+            // SAFETY: a null device asks for the thread's last device-creation error.
+            let e = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            bail!("rtcNewDevice failed ({e:?}); is libembree3 usable on this CPU?");
+        }
+        Ok(Self { device })
+    }
+
+    /// Builds Embree's BVH over `tris` at `quality` (0, 1, 2: LOW, MEDIUM, HIGH; scene flags
+    /// NONE) and returns the seconds `rtcCommitScene` took.
+    pub fn time_build(&self, tris: &[Triangle], quality: u8) -> Result<f64> {
+        let n = tris.len();
+        ensure!(
+            n > 0 && n.checked_mul(3).is_some_and(|v| v <= u32::MAX as usize),
+            "{n} triangles: not a scene Embree can time"
+        );
+        let device = self.device;
+        let config = Config {
+            quality,
+            robust: false,
+        };
+        // SAFETY: as in `Scene::build`: handles checked for null, buffers written in bounds by
+        // `fill_buffers`, the geometry released after being attached, the scene released
+        // before returning.
+        unsafe {
+            let scene = sys::rtcNewScene(device);
+            check(device, "creating the scene")?;
+            ensure!(!scene.is_null(), "rtcNewScene returned null");
+            let result = (|| {
+                let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+                check(device, "creating the triangle geometry")?;
+                ensure!(!geom.is_null(), "rtcNewGeometry returned null");
+                let filled = fill_buffers(geom, tris);
+                if filled.is_ok() {
+                    sys::rtcCommitGeometry(geom);
+                    sys::rtcAttachGeometry(scene, geom);
+                }
+                sys::rtcReleaseGeometry(geom);
+                filled?;
+                check(device, "committing the triangle geometry")?;
+                sys::rtcSetSceneBuildQuality(scene, config.quality());
+                sys::rtcSetSceneFlags(scene, config.flags());
+                let t0 = std::time::Instant::now();
+                sys::rtcCommitScene(scene);
+                let secs = t0.elapsed().as_secs_f64();
+                check(device, "committing the scene (building its BVH)")?;
+                Ok(secs)
+            })();
+            sys::rtcReleaseScene(scene);
+            result
+        }
+    }
+}

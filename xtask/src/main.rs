@@ -1,6 +1,8 @@
 //! `cargo xtask`: the project's tasks (see README.md and the command-line contract in
 //! `docs/command-line.md`).
 
+mod alloc_count;
+mod build_bench;
 mod bvh_cmd;
 #[cfg(feature = "embree")]
 mod embree;
@@ -18,6 +20,10 @@ mod util;
 
 use clap::{Parser, Subcommand};
 
+/// Counts heap bytes for the build-memory figures (`alloc_count`).
+#[global_allocator]
+static ALLOC: alloc_count::Counting = alloc_count::Counting;
+
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "sahara project tasks")]
 struct Cli {
@@ -33,6 +39,9 @@ enum Cmd {
     Builders,
     /// Build a BVH and report build time and tree statistics.
     Bvh(bvh_cmd::Args),
+    /// Time builders (and Embree's builder, with the `embree` feature) alternating in one
+    /// window: medians, spreads and ratios (docs/embree.md).
+    BuildBench(build_bench::Args),
     /// Trace a ray set and report speed and work per ray.
     Trace(trace_cmd::Args),
     /// Run the evaluation matrix and write the report.
@@ -64,6 +73,7 @@ fn main() {
         Cmd::Scenes(a) => scenes_cmd::run(a),
         Cmd::Builders => bvh_cmd::list_builders(),
         Cmd::Bvh(a) => bvh_cmd::run(a),
+        Cmd::BuildBench(a) => build_bench::run(a),
         Cmd::Trace(a) => trace_cmd::run(a),
         Cmd::Eval(a) => eval::run(a),
         Cmd::Scaling(a) => scaling::run(a),

@@ -38,14 +38,15 @@
 //! ```
 
 use crate::registry::Entry;
-use crate::split::binned::{self as bins, Bin};
+use crate::split::binned::{self as bins, Bin, RefBins};
+pub use crate::split::binned::{FillBackend, PrimRef};
 use crate::split::{
-    half_area, imbalance, ranks_before, sort_by_key, BinMap, Suffix, PAR_CHUNK, PAR_NODE_THRESHOLD,
+    float_key, half_area, imbalance, ranks_before, BinMap, Suffix, PAR_CHUNK, PAR_NODE_THRESHOLD,
 };
 use crate::topdown::{self, Step, TopDown};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use rayon::prelude::*;
-use sahara_geom::{Aabb, Vec3A};
+use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
 /// Configuration of the binned SAH builder.
@@ -121,16 +122,43 @@ impl Strategy for BinnedConfig {
     }
 
     fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
-        let rule = BinnedRule::new(input, self);
-        let mut prims: Vec<u32> = (0..input.len() as u32).collect();
-        let nb = rule.bounds_of(&prims);
-        let root = BinTask {
-            prims: &mut prims,
-            nb,
-            depth: 0,
-        };
-        Ok(topdown::build(&rule, root, false))
+        Ok(build_tree(input, self, FillBackend::Simd))
     }
+}
+
+/// The tree of [`BinnedBuilder`] with `config`, its bins filled by `backend`. Both backends
+/// give the bit-identical tree on every CPU (the crate's tests compare them); this entry point
+/// exists so that they can be compared.
+///
+/// # Errors
+///
+/// As [`Builder::build`](crate::Builder::build): an invalid configuration or too many
+/// primitives.
+pub fn build_with_backend(
+    input: &BuildInput,
+    config: &BinnedConfig,
+    backend: FillBackend,
+) -> Result<Bvh, BuildError> {
+    config.check()?;
+    if input.is_empty() {
+        return Ok(Bvh::empty());
+    }
+    if input.len() > (u32::MAX / 2) as usize {
+        return Err(BuildError::TooManyPrimitives(input.len()));
+    }
+    Ok(build_tree(input, config, backend))
+}
+
+fn build_tree(input: &BuildInput, config: &BinnedConfig, backend: FillBackend) -> Bvh {
+    let rule = BinnedRule::new(input, config, backend);
+    let mut refs = rule.refs_of((0..input.len() as u32).collect::<Vec<_>>().as_slice());
+    let nb = bounds_of(&refs);
+    let root = BinTask {
+        refs: &mut refs,
+        nb,
+        depth: 0,
+    };
+    topdown::build(&rule, root, false)
 }
 
 /// The binned SAH builder (Wald 2007). Parallel on rayon; the tree does not depend on the
@@ -142,10 +170,10 @@ pub type BinnedBuilder = Configured<BinnedConfig>;
 /// during the build without allocating any node.
 ///
 /// `prims` is reordered in place (it ends up in the leaf order of that tree). Scratch memory
-/// (the bins) is allocated once per call and reused at every node; nodes with many primitives
-/// are processed in parallel with `rayon::join`, and the result is the same for any number of
-/// threads. The value equals `sahara_metrics::sah` of the built tree up to rounding (the two
-/// sum the same terms in different orders). An empty subset costs `0`.
+/// (the references and the bins) is allocated once per call and reused at every node; the
+/// result is the same for any number of threads. The value equals `sahara_metrics::sah` of
+/// the built tree up to rounding (the two sum the same terms in different orders). An empty
+/// subset costs `0`.
 ///
 /// # Panics
 ///
@@ -156,14 +184,19 @@ pub fn binned_cost_only(input: &BuildInput, prims: &mut [u32], config: &BinnedCo
     if prims.is_empty() {
         return 0.0;
     }
-    let rule = BinnedRule::new(input, config);
-    let nb = rule.bounds_of(prims);
+    let rule = BinnedRule::new(input, config, FillBackend::Simd);
+    let mut refs = rule.refs_of(prims);
+    let nb = bounds_of(&refs);
     let root = BinTask {
-        prims,
+        refs: &mut refs,
         nb,
         depth: 0,
     };
-    topdown::cost(&rule, root, &input.cost, &mut Scratch::default()).cost
+    let c = topdown::cost(&rule, root, &input.cost, &mut Scratch::default()).cost;
+    for (p, r) in prims.iter_mut().zip(&refs) {
+        *p = r.id();
+    }
+    c
 }
 
 /// Registry entries of this module: `binned` (32 bins), `binned-8` and `binned-128`.
@@ -201,26 +234,27 @@ pub fn registry_entries() -> Vec<Entry> {
 /// [`BinnedConfig::fallback_depth`]).
 struct BinnedRule<'a> {
     bounds: &'a [Aabb],
-    centroids: &'a [Vec3A],
     cost: CostModel,
     cfg: BinnedConfig,
+    backend: FillBackend,
 }
 
-/// A node still to build: its primitives (partitioned in place), their bounds, its depth.
+/// A node still to build: its primitive references (partitioned in place), their bounds, its
+/// depth.
 struct BinTask<'a> {
-    prims: &'a mut [u32],
+    refs: &'a mut [PrimRef],
     nb: Bounds,
     depth: usize,
 }
 
-/// Scratch memory: three axes of bins and the suffix sweep; for small nodes, the primitives
-/// sorted by bin and their suffix bounds.
+/// Scratch memory: the bins of three axes, one axis of them as [`Bin`]s and the suffix sweep;
+/// for small nodes, the references sorted by bin and their suffix bounds.
 #[derive(Default)]
 struct Scratch {
-    bins: Vec<Bin>,
+    bins: RefBins,
+    axis: Vec<Bin>,
     right: Vec<(f32, u32)>,
-    pairs: Vec<(u32, u32)>,
-    keys: Vec<u64>,
+    small: Vec<u32>,
     suffix: Vec<Aabb>,
 }
 
@@ -229,15 +263,6 @@ struct Scratch {
 struct Bounds {
     bounds: Aabb,
     centroids: Aabb,
-}
-
-impl From<Bin> for Bounds {
-    fn from(b: Bin) -> Self {
-        Bounds {
-            bounds: b.bounds,
-            centroids: b.centroids,
-        }
-    }
 }
 
 /// The best plane found by binning, with the bounds of both sides.
@@ -249,8 +274,8 @@ struct Plane {
     map: BinMap,
     /// Primitives going left.
     n_left: usize,
-    left: Bounds,
-    right: Bounds,
+    left: Aabb,
+    right: Aabb,
 }
 
 /// A plane under consideration: its score `A_l n_l + A_r n_r` (which orders the planes of one
@@ -275,72 +300,82 @@ impl Rated {
     }
 }
 
+/// Bounds of the references and of their centroids (computed at the root and for median
+/// splits; other children get their bounds from the bins and their centroid bounds from the
+/// partition).
+fn bounds_of(refs: &[PrimRef]) -> Bounds {
+    let fold = |refs: &[PrimRef]| {
+        let mut b = Aabb::EMPTY;
+        let mut c = Aabb::EMPTY;
+        for r in refs {
+            b.grow_aabb(&r.bounds());
+            c.grow(r.centroid());
+        }
+        (b, c)
+    };
+    let (bounds, centroids) = if refs.len() >= PAR_NODE_THRESHOLD {
+        refs.par_chunks(PAR_CHUNK).map(fold).reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+        )
+    } else {
+        fold(refs)
+    };
+    Bounds { bounds, centroids }
+}
+
 impl<'a> BinnedRule<'a> {
-    fn new(input: &'a BuildInput, cfg: &BinnedConfig) -> Self {
+    fn new(input: &'a BuildInput, cfg: &BinnedConfig, backend: FillBackend) -> Self {
         Self {
             bounds: input.bounds(),
-            centroids: input.centroids(),
             cost: input.cost,
             cfg: *cfg,
+            backend,
         }
     }
 
-    /// Bounds of the primitives and of their centroids (computed at the root and for median
-    /// splits; other children get theirs from the bins).
-    fn bounds_of(&self, prims: &[u32]) -> Bounds {
-        let fold = |prims: &[u32]| {
-            let mut b = Aabb::EMPTY;
-            let mut c = Aabb::EMPTY;
-            for &p in prims {
-                b.grow_aabb(&self.bounds[p as usize]);
-                c.grow(self.centroids[p as usize]);
-            }
-            (b, c)
-        };
-        let (bounds, centroids) = if prims.len() >= PAR_NODE_THRESHOLD {
-            prims.par_chunks(PAR_CHUNK).map(fold).reduce(
-                || (Aabb::EMPTY, Aabb::EMPTY),
-                |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
-            )
+    /// The references of primitives `prims`, in that order.
+    fn refs_of(&self, prims: &[u32]) -> Vec<PrimRef> {
+        let make = |&p: &u32| PrimRef::new(&self.bounds[p as usize], p);
+        if prims.len() >= PAR_NODE_THRESHOLD {
+            prims.par_iter().map(make).collect()
         } else {
-            fold(prims)
-        };
-        Bounds { bounds, centroids }
+            prims.iter().map(make).collect()
+        }
     }
 
     /// The plane of least Eq. 2 cost over the three axes (ties: see [`ranks_before`]); `None`
     /// when no plane has primitives on both sides.
-    fn best_plane(&self, prims: &[u32], cb: &Aabb, s: &mut Scratch) -> Option<Plane> {
+    fn best_plane(&self, refs: &[PrimRef], cb: &Aabb, s: &mut Scratch) -> Option<Plane> {
         let k = self.cfg.bins;
         let maps = bins::maps(cb, k);
         if maps.iter().all(Option::is_none) {
             return None;
         }
-        if 2 * prims.len() <= k {
-            self.best_plane_small(prims, &maps, s)
+        if 2 * refs.len() <= k && refs.len() <= SMALL_MAX && k <= SMALL_MAX {
+            self.best_plane_small(refs, &maps, s)
         } else {
-            self.best_plane_binned(prims, &maps, s)
+            self.best_plane_binned(refs, &maps, s)
         }
     }
 
     /// [`best_plane`](Self::best_plane) by the bins.
     fn best_plane_binned(
         &self,
-        prims: &[u32],
+        refs: &[PrimRef],
         maps: &[Option<BinMap>; 3],
         s: &mut Scratch,
     ) -> Option<Plane> {
         let k = self.cfg.bins;
-        s.bins.resize(3 * k, Bin::EMPTY);
         s.right.resize(k, (0.0, 0));
-        bins::fill_par(&mut s.bins, k, maps, prims, self.bounds, self.centroids);
+        s.bins.fill_par(k, maps, refs, self.backend);
         let mut best: Option<Rated> = None;
         for (axis, map) in maps.iter().enumerate() {
             if map.is_none() {
                 continue;
             }
-            let axis_bins = &s.bins[axis * k..(axis + 1) * k];
-            bins::sweep_planes(axis_bins, &mut s.right, |plane, lb, lc, ra: &f32, rc| {
+            s.bins.axis_bins(axis, &mut s.axis);
+            bins::sweep_planes(&s.axis, &mut s.right, |plane, lb, lc, ra: &f32, rc| {
                 let cand = Rated {
                     axis,
                     plane,
@@ -353,14 +388,15 @@ impl<'a> BinnedRule<'a> {
             });
         }
         let Rated { axis, plane, .. } = best?;
-        let (left, right) = bins::sides(&s.bins[axis * k..(axis + 1) * k], plane);
+        s.bins.axis_bins(axis, &mut s.axis);
+        let (left, right) = bins::sides(&s.axis, plane);
         Some(Plane {
             axis,
             plane,
             map: maps[axis].expect("a mapped axis"),
             n_left: left.count as usize,
-            left: left.into(),
-            right: right.into(),
+            left: left.bounds,
+            right: right.bounds,
         })
     }
 
@@ -373,33 +409,35 @@ impl<'a> BinnedRule<'a> {
     /// to the full sweep's.
     fn best_plane_small(
         &self,
-        prims: &[u32],
+        refs: &[PrimRef],
         maps: &[Option<BinMap>; 3],
         s: &mut Scratch,
     ) -> Option<Plane> {
-        let n = prims.len();
+        let n = refs.len();
         let mut best: Option<(Rated, BinMap)> = None;
+        s.suffix.resize(n.max(1), Aabb::EMPTY);
         for (axis, map) in maps.iter().enumerate() {
             let Some(map) = *map else { continue };
-            s.pairs.clear();
-            s.pairs.extend(
-                prims
-                    .iter()
-                    .map(|&p| (map.bin(self.centroids[p as usize][axis]) as u32, p)),
+            // (bin, position in the node) in one word; the order within a bin does not
+            // matter (bounds are unions, exact in any order).
+            s.small.clear();
+            s.small.extend(
+                refs.iter()
+                    .enumerate()
+                    .map(|(i, r)| ((map.bin(r.centroid_on(axis)) as u32) << 16) | i as u32),
             );
-            s.pairs.sort_unstable();
-            let bin_of = |i: usize| s.pairs[i].0 as usize;
-            let prim_of = |i: usize| s.pairs[i].1 as usize;
-            s.suffix.clear();
-            s.suffix.resize(n, Aabb::EMPTY);
+            s.small.sort_unstable();
+            let small = &s.small;
+            let bin_of = |i: usize| (small[i] >> 16) as usize;
+            let ref_of = |i: usize| refs[(small[i] & 0xffff) as usize].bounds();
             let mut rb = Aabb::EMPTY;
             for i in (1..n).rev() {
-                rb.grow_aabb(&self.bounds[prim_of(i)]);
+                rb.grow_aabb(&ref_of(i));
                 s.suffix[i] = rb;
             }
             let mut lb = Aabb::EMPTY;
             for i in 1..n {
-                lb.grow_aabb(&self.bounds[prim_of(i - 1)]);
+                lb.grow_aabb(&ref_of(i - 1));
                 if bin_of(i) == bin_of(i - 1) {
                     continue;
                 }
@@ -415,76 +453,99 @@ impl<'a> BinnedRule<'a> {
             }
         }
         let (Rated { axis, plane, .. }, map) = best?;
-        let mut left = Bin::EMPTY;
-        let mut right = Bin::EMPTY;
-        for &p in prims {
-            let c = self.centroids[p as usize];
-            let side = if map.bin(c[axis]) < plane {
-                &mut left
+        let mut left = Aabb::EMPTY;
+        let mut right = Aabb::EMPTY;
+        let mut n_left = 0;
+        for r in refs {
+            if map.bin(r.centroid_on(axis)) < plane {
+                left.grow_aabb(&r.bounds());
+                n_left += 1;
             } else {
-                &mut right
-            };
-            side.add(&self.bounds[p as usize], c);
+                right.grow_aabb(&r.bounds());
+            }
         }
         Some(Plane {
             axis,
             plane,
             map,
-            n_left: left.count as usize,
-            left: left.into(),
-            right: right.into(),
+            n_left,
+            left,
+            right,
         })
     }
 
-    /// Moves the primitives of bins `< plane` to the front; returns how many there are.
-    fn partition(&self, prims: &mut [u32], p: &Plane) -> usize {
-        let goes_left = |q: u32| p.map.bin(self.centroids[q as usize][p.axis]) < p.plane;
-        let (mut i, mut j) = (0usize, prims.len());
+    /// Moves the references of bins `< plane` to the front (the same swaps whatever the
+    /// backend); returns how many there are and the centroid bounds of both sides.
+    fn partition(&self, refs: &mut [PrimRef], p: &Plane) -> (usize, Aabb, Aabb) {
+        // `map.bin(x) < plane` without the saturating conversion: for a whole `plane` in
+        // `1..bins`, `min(trunc(v), bins - 1) < plane` exactly when `!(v >= plane)`
+        // (NaN, negative and small `v` go left, as their bin is 0).
+        let (axis, min, scale, plane) = (p.axis, p.map.min, p.map.scale, p.plane as f32);
+        let mut lc = Aabb::EMPTY;
+        let mut rc = Aabb::EMPTY;
+        let mut goes_left = |r: &PrimRef| {
+            let c = r.centroid();
+            // Negated on purpose: NaN goes left, as `BinMap::bin` puts it in bin 0.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let left = !((c[axis] - min) * scale >= plane);
+            if left {
+                lc.grow(c);
+            } else {
+                rc.grow(c);
+            }
+            left
+        };
+        let (mut i, mut j) = (0usize, refs.len());
         loop {
-            while i < j && goes_left(prims[i]) {
+            while i < j && goes_left(&refs[i]) {
                 i += 1;
             }
-            while i < j && !goes_left(prims[j - 1]) {
+            while i < j && !goes_left(&refs[j - 1]) {
                 j -= 1;
             }
             if i >= j {
-                return i;
+                return (i, lc, rc);
             }
-            prims.swap(i, j - 1);
+            refs.swap(i, j - 1);
             i += 1;
             j -= 1;
         }
     }
 
     /// Object median split on the largest axis of the centroid bounds, by (centroid, index).
-    fn median_split(&self, prims: &mut [u32], cb: &Aabb, s: &mut Scratch) -> usize {
+    fn median_split(&self, refs: &mut [PrimRef], cb: &Aabb) -> usize {
         let axis = cb.largest_axis();
-        sort_by_key(&mut s.keys, prims.len(), |i| {
-            (self.centroids[prims[i] as usize][axis], prims[i])
-        });
-        for (p, &k) in prims.iter_mut().zip(&s.keys) {
-            *p = k as u32;
+        // The keys are unique (ids are), so the order does not depend on the algorithm.
+        let key = |r: &PrimRef| ((float_key(r.centroid_on(axis)) as u64) << 32) | r.id() as u64;
+        if refs.len() > 1 << 14 {
+            refs.par_sort_unstable_by_key(key);
+        } else {
+            refs.sort_unstable_by_key(key);
         }
-        prims.len() / 2
+        refs.len() / 2
     }
 }
+
+/// Nodes of at most this many references (and bin counts up to it) may take the sorted
+/// small-node path (bin and position share one `u32` key).
+const SMALL_MAX: usize = 1 << 16;
 
 impl<'a> TopDown for BinnedRule<'a> {
     type Task = BinTask<'a>;
     type Scratch = Scratch;
 
     fn size(&self, t: &BinTask<'a>) -> usize {
-        t.prims.len()
+        t.refs.len()
     }
 
     fn split(&self, t: BinTask<'a>, scratch: &mut Scratch) -> Step<BinTask<'a>> {
-        let n = t.prims.len();
+        let n = t.refs.len();
         let nb = t.nb;
         let can_leaf = n <= self.cfg.max_leaf_size;
         let plane = if n == 1 || t.depth >= self.cfg.fallback_depth {
             None
         } else {
-            self.best_plane(t.prims, &nb.centroids, scratch)
+            self.best_plane(t.refs, &nb.centroids, scratch)
         };
         let make_leaf = match &plane {
             _ if n == 1 => true,
@@ -492,9 +553,9 @@ impl<'a> TopDown for BinnedRule<'a> {
                 let (nl, nr) = (p.n_left, n - p.n_left);
                 let cost = self.cost.split_cost(
                     half_area(&nb.bounds),
-                    half_area(&p.left.bounds),
+                    half_area(&p.left),
                     nl,
-                    half_area(&p.right.bounds),
+                    half_area(&p.right),
                     nr,
                 );
                 can_leaf && cost >= self.cost.leaf_cost(n)
@@ -507,28 +568,40 @@ impl<'a> TopDown for BinnedRule<'a> {
                 task: t,
             };
         }
-        let prims = t.prims;
+        let refs = t.refs;
         let (mid, lb, rb) = match plane {
-            Some(p) => (self.partition(prims, &p), p.left, p.right),
+            Some(p) => {
+                let (mid, lc, rc) = self.partition(refs, &p);
+                debug_assert_eq!(mid, p.n_left);
+                (
+                    mid,
+                    Bounds {
+                        bounds: p.left,
+                        centroids: lc,
+                    },
+                    Bounds {
+                        bounds: p.right,
+                        centroids: rc,
+                    },
+                )
+            }
             None => {
-                let mid = self.median_split(prims, &nb.centroids, scratch);
-                let lb = self.bounds_of(&prims[..mid]);
-                let rb = self.bounds_of(&prims[mid..]);
-                (mid, lb, rb)
+                let mid = self.median_split(refs, &nb.centroids);
+                (mid, bounds_of(&refs[..mid]), bounds_of(&refs[mid..]))
             }
         };
         debug_assert!(mid > 0 && mid < n);
-        let (left, right) = prims.split_at_mut(mid);
+        let (left, right) = refs.split_at_mut(mid);
         let depth = t.depth + 1;
         Step::Split {
             bounds: nb.bounds,
             left: BinTask {
-                prims: left,
+                refs: left,
                 nb: lb,
                 depth,
             },
             right: BinTask {
-                prims: right,
+                refs: right,
                 nb: rb,
                 depth,
             },
@@ -536,7 +609,7 @@ impl<'a> TopDown for BinnedRule<'a> {
     }
 
     fn leaf_refs(&self, t: &BinTask<'a>, out: &mut Vec<u32>) {
-        out.extend_from_slice(t.prims);
+        out.extend(t.refs.iter().map(PrimRef::id));
     }
 
     fn parallel_threshold(&self) -> usize {
@@ -548,7 +621,7 @@ impl<'a> TopDown for BinnedRule<'a> {
 mod tests {
     use super::*;
     use sahara_geom::rng::Pcg32;
-    use sahara_geom::Triangle;
+    use sahara_geom::{Triangle, Vec3A};
 
     #[test]
     fn small_node_path_equals_full_binning() {
@@ -564,12 +637,13 @@ mod tests {
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();
         for bins in [16, 32, 128] {
             let cfg = BinnedConfig::with_bins(bins);
-            let rule = BinnedRule::new(&input, &cfg);
+            let rule = BinnedRule::new(&input, &cfg, FillBackend::Simd);
             let mut s = Scratch::default();
             for trial in 0..200 {
                 let n = 2 + trial % (bins / 2 - 1);
                 let prims: Vec<u32> = (0..n).map(|_| rng.below(64)).collect();
-                let cb = rule.bounds_of(&prims).centroids;
+                let prims = rule.refs_of(&prims);
+                let cb = bounds_of(&prims).centroids;
                 let maps = bins::maps(&cb, bins);
                 let a = rule.best_plane_small(&prims, &maps, &mut s);
                 let b = rule.best_plane_binned(&prims, &maps, &mut s);
@@ -577,8 +651,8 @@ mod tests {
                     (None, None) => {}
                     (Some(a), Some(b)) => {
                         assert_eq!((a.axis, a.plane, a.n_left), (b.axis, b.plane, b.n_left));
-                        assert_eq!(a.left.bounds, b.left.bounds);
-                        assert_eq!(a.right.centroids, b.right.centroids);
+                        assert_eq!(a.left, b.left);
+                        assert_eq!(a.right, b.right);
                     }
                     _ => panic!("one path found a plane, the other did not"),
                 }

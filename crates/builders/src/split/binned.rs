@@ -169,3 +169,288 @@ pub fn sides(bins: &[Bin], plane: usize) -> (Bin, Bin) {
     }
     (left, right)
 }
+
+/// A primitive reference of the binned builder: the corners of the primitive's box as
+/// four-lane arrays, 32 bytes aligned for 128-bit loads, with the primitive id in the bits of
+/// the fourth lane of `min` (the fourth lane of `max` is zero). The builder partitions these
+/// in place instead of chasing ids into the input's box and centroid arrays.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug)]
+pub struct PrimRef {
+    /// Lower corner `x, y, z`, then the primitive id's bits.
+    pub min: [f32; 4],
+    /// Upper corner `x, y, z`, then `0.0`.
+    pub max: [f32; 4],
+}
+
+impl PrimRef {
+    /// The reference of primitive `id` with box `b`.
+    #[inline]
+    pub fn new(b: &Aabb, id: u32) -> Self {
+        Self {
+            min: [b.min.x, b.min.y, b.min.z, f32::from_bits(id)],
+            max: [b.max.x, b.max.y, b.max.z, 0.0],
+        }
+    }
+
+    /// The primitive id.
+    #[inline]
+    pub fn id(&self) -> u32 {
+        self.min[3].to_bits()
+    }
+
+    /// The primitive's box.
+    #[inline]
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(
+            Vec3A::new(self.min[0], self.min[1], self.min[2]),
+            Vec3A::new(self.max[0], self.max[1], self.max[2]),
+        )
+    }
+
+    /// The centre of the box, exactly [`Aabb::centroid`] (`(min + max) * 0.5` per axis).
+    #[inline]
+    pub fn centroid(&self) -> Vec3A {
+        Vec3A::new(
+            (self.min[0] + self.max[0]) * 0.5,
+            (self.min[1] + self.max[1]) * 0.5,
+            (self.min[2] + self.max[2]) * 0.5,
+        )
+    }
+
+    /// The centre of the box on one axis (as [`centroid`](Self::centroid)).
+    #[inline]
+    pub fn centroid_on(&self, axis: usize) -> f32 {
+        (self.min[axis] + self.max[axis]) * 0.5
+    }
+}
+
+/// Which implementation [`RefBins::fill`] runs. Both give bit-identical bins (and so the same
+/// trees) on every CPU: the SIMD path uses only lane-wise IEEE operations (add, multiply,
+/// min, max, truncation) in the order of the scalar one, and the scalar path reproduces the
+/// SIMD min/max semantics exactly (`min(a, b)` is `a` only when `a < b`, which decides between
+/// `-0.0` and `+0.0`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FillBackend {
+    /// 128-bit SIMD (SSE2) on x86-64, the scalar code elsewhere.
+    #[default]
+    Simd,
+    /// The scalar code everywhere (for tests that compare the two).
+    Scalar,
+}
+
+/// The bins of [`PrimRef`]s over the three axes (`3 × k`, axis-major): the union of the boxes
+/// (lanes `x, y, z`; the fourth is zero) and the count of each bin. No centroid bounds: the
+/// binned builder computes those of its children while partitioning.
+#[derive(Clone, Debug, Default)]
+pub struct RefBins {
+    k: usize,
+    min: Vec<[f32; 4]>,
+    max: Vec<[f32; 4]>,
+    count: Vec<u32>,
+}
+
+/// `min` of two lanes as SSE's `minps` computes it (`a` only when `a < b`).
+#[inline(always)]
+fn min_lane(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `max` of two lanes as SSE's `maxps` computes it (`a` only when `a > b`).
+#[inline(always)]
+fn max_lane(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+impl RefBins {
+    /// Empty storage (it grows at the first fill).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of bins per axis of the last fill.
+    pub fn bins_per_axis(&self) -> usize {
+        self.k
+    }
+
+    fn reset(&mut self, k: usize) {
+        self.k = k;
+        self.min.clear();
+        self.min
+            .resize(3 * k, [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0]);
+        self.max.clear();
+        self.max.resize(
+            3 * k,
+            [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY, 0.0],
+        );
+        self.count.clear();
+        self.count.resize(3 * k, 0);
+    }
+
+    /// Bin `i` (of `3 × k`) as a [`Bin`] (its centroid bounds empty).
+    #[inline]
+    pub fn bin(&self, i: usize) -> Bin {
+        let (a, b) = (&self.min[i], &self.max[i]);
+        Bin {
+            bounds: Aabb::new(Vec3A::new(a[0], a[1], a[2]), Vec3A::new(b[0], b[1], b[2])),
+            centroids: Aabb::EMPTY,
+            count: self.count[i],
+        }
+    }
+
+    /// Writes the bins of axis `axis` into `out` (`k` of them) as [`Bin`]s, for
+    /// [`sweep_planes`] and [`sides`].
+    pub fn axis_bins(&self, axis: usize, out: &mut Vec<Bin>) {
+        out.clear();
+        out.extend((axis * self.k..(axis + 1) * self.k).map(|i| self.bin(i)));
+    }
+
+    /// Fills the bins with `refs` by their centroids (`k` bins per axis, the axes without a
+    /// map left empty), exactly as [`fill`] does for the same items in the same order.
+    pub fn fill(
+        &mut self,
+        k: usize,
+        maps: &[Option<BinMap>; 3],
+        refs: &[PrimRef],
+        backend: FillBackend,
+    ) {
+        self.reset(k);
+        let lo: [f32; 4] = std::array::from_fn(|a| {
+            if a < 3 {
+                maps[a].map_or(0.0, |m| m.min)
+            } else {
+                0.0
+            }
+        });
+        let scale: [f32; 4] = std::array::from_fn(|a| {
+            if a < 3 {
+                maps[a].map_or(0.0, |m| m.scale)
+            } else {
+                0.0
+            }
+        });
+        let on = maps.map(|m| m.is_some());
+        match backend {
+            #[cfg(target_arch = "x86_64")]
+            FillBackend::Simd => {
+                // SAFETY: SSE2 is part of the x86-64 baseline.
+                unsafe { self.fill_sse2(lo, scale, on, refs) }
+            }
+            _ => self.fill_scalar(lo, scale, on, refs),
+        }
+    }
+
+    /// [`fill`](Self::fill) in parallel chunks of [`PAR_CHUNK`] for at least
+    /// [`PAR_NODE_THRESHOLD`] references (exact, so the chunking changes nothing).
+    pub fn fill_par(
+        &mut self,
+        k: usize,
+        maps: &[Option<BinMap>; 3],
+        refs: &[PrimRef],
+        backend: FillBackend,
+    ) {
+        if refs.len() < PAR_NODE_THRESHOLD {
+            self.fill(k, maps, refs, backend);
+            return;
+        }
+        let merged = refs
+            .par_chunks(PAR_CHUNK)
+            .map(|chunk| {
+                let mut local = RefBins::new();
+                local.fill(k, maps, chunk, backend);
+                local
+            })
+            .reduce_with(|mut a, b| {
+                a.merge(&b);
+                a
+            })
+            .expect("a non-empty node");
+        *self = merged;
+    }
+
+    /// Adds the content of `other` (same `k`) bin by bin, `self` first.
+    fn merge(&mut self, other: &RefBins) {
+        for i in 0..3 * self.k {
+            for l in 0..3 {
+                self.min[i][l] = min_lane(self.min[i][l], other.min[i][l]);
+                self.max[i][l] = max_lane(self.max[i][l], other.max[i][l]);
+            }
+            self.count[i] += other.count[i];
+        }
+    }
+
+    /// The bin index of each axis: `min(max((c - lo) * scale, 0), k - 1)` truncated, where
+    /// `c = (min + max) * 0.5`, lane by lane.
+    fn fill_scalar(&mut self, lo: [f32; 4], scale: [f32; 4], on: [bool; 3], refs: &[PrimRef]) {
+        let k = self.k;
+        let top = (k - 1) as f32;
+        for r in refs {
+            for (a, &on) in on.iter().enumerate() {
+                if !on {
+                    continue;
+                }
+                let c = (r.min[a] + r.max[a]) * 0.5;
+                let v = min_lane(max_lane((c - lo[a]) * scale[a], 0.0), top);
+                let i = a * k + v as usize;
+                let (bmin, bmax) = (&mut self.min[i], &mut self.max[i]);
+                for l in 0..3 {
+                    bmin[l] = min_lane(bmin[l], r.min[l]);
+                    bmax[l] = max_lane(bmax[l], r.max[l]);
+                }
+                self.count[i] += 1;
+            }
+        }
+    }
+
+    /// [`fill_scalar`](Self::fill_scalar) with 128-bit lanes.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports SSE2 (always true on x86-64).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "sse2")]
+    unsafe fn fill_sse2(&mut self, lo: [f32; 4], scale: [f32; 4], on: [bool; 3], refs: &[PrimRef]) {
+        use std::arch::x86_64::*;
+        let k = self.k;
+        let (mins, maxs, counts) = (&mut self.min, &mut self.max, &mut self.count);
+        // SAFETY (whole body): every pointer read or written is that of a `[f32; 4]` or of a
+        // `PrimRef` (16-byte aligned), and every bin index is below `3 k` (the lane values are
+        // clamped to `[0, k - 1]` before truncation, and only mapped axes are written).
+        unsafe {
+            let lo = _mm_loadu_ps(lo.as_ptr());
+            let scale = _mm_loadu_ps(scale.as_ptr());
+            let top = _mm_set1_ps((k - 1) as f32);
+            let zero = _mm_setzero_ps();
+            let half = _mm_set1_ps(0.5);
+            // Clears the id lane of `min`.
+            let xyz = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
+            let offs = [0usize, k, 2 * k];
+            for r in refs {
+                let mn = _mm_and_ps(_mm_load_ps(r.min.as_ptr()), xyz);
+                let mx = _mm_load_ps(r.max.as_ptr());
+                let c = _mm_mul_ps(_mm_add_ps(mn, mx), half);
+                let v = _mm_min_ps(_mm_max_ps(_mm_mul_ps(_mm_sub_ps(c, lo), scale), zero), top);
+                let mut idx = [0i32; 4];
+                _mm_storeu_si128(idx.as_mut_ptr().cast(), _mm_cvttps_epi32(v));
+                for a in 0..3 {
+                    if on[a] {
+                        let i = offs[a] + idx[a] as usize;
+                        let pmin = mins.as_mut_ptr().add(i).cast::<f32>();
+                        let pmax = maxs.as_mut_ptr().add(i).cast::<f32>();
+                        _mm_storeu_ps(pmin, _mm_min_ps(_mm_loadu_ps(pmin), mn));
+                        _mm_storeu_ps(pmax, _mm_max_ps(_mm_loadu_ps(pmax), mx));
+                        *counts.get_unchecked_mut(i) += 1;
+                    }
+                }
+            }
+        }
+    }
+}
