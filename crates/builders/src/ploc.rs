@@ -206,11 +206,13 @@ fn build(input: &BuildInput, config: &PlocConfig) -> Bvh {
                 let b = cboxes[i];
                 let mut best = (f32::INFINITY, usize::MAX, 0, 0);
                 let mut best_j = usize::MAX;
-                for j in i.saturating_sub(r)..(i + r + 1).min(m) {
+                let lo = i.saturating_sub(r);
+                let hi = (i + r + 1).min(m);
+                for (j, other) in cboxes.iter().enumerate().take(hi).skip(lo) {
                     if j == i {
                         continue;
                     }
-                    let k = pair_key(b.union(&cboxes[j]).half_area(), i, j);
+                    let k = pair_key(b.union(other).half_area(), i, j);
                     if best_j == usize::MAX || less(k, best) {
                         best = k;
                         best_j = j;

@@ -230,7 +230,10 @@ pub fn optimize_with_stats(
     let out = tree.to_bvh(bvh);
     let after = sahara_metrics::sah(&out, cost);
     // `after <= before` unless float noise in the sums says otherwise: keep the input then.
-    if !(after <= before) {
+    // (Written negated so that a NaN SAH also keeps the input.)
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    let worse = !(after <= before);
+    if worse {
         stats.sah_after = before;
         stats.moves = 0;
         return Ok((
@@ -520,7 +523,7 @@ impl Tree {
                 }
             });
         }
-        (best_x != NONE).then(|| Move {
+        (best_x != NONE).then_some(Move {
             node: n,
             target: best_x,
             gain: removal - best,
