@@ -7,6 +7,7 @@
 //! (defaults: `binned`, 100000).
 
 use sahara_builders::{registry, BuildInput, CostModel};
+use sahara_fixtures::rays::point_in;
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_scene::{Mesh, Procedural};
 use sahara_traverse::{Bvh8, WorkCounters};
@@ -129,13 +130,7 @@ fn city_diag(m: &Mesh) -> f32 {
 fn rays(tris: &[Triangle], n: usize) -> Vec<Ray> {
     let b = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
     let mut rng = Pcg32::new(7, 3);
-    let mut p = || {
-        Vec3A::new(
-            rng.range_f32(b.min.x, b.max.x),
-            rng.range_f32(b.min.y, b.max.y),
-            rng.range_f32(b.min.z, b.max.z),
-        )
-    };
+    let mut p = || point_in(&b, &mut rng);
     (0..n)
         .map(|_| {
             let (o, e) = (p(), p());

@@ -6,6 +6,7 @@
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::{Bvh, RefitError};
 use sahara_fixtures::meshes::mesh_like;
+use sahara_fixtures::rays::point_in;
 use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{brute, custom, scalar, Backend, Bvh4, Bvh8, Hit, NoStats, WideBvh};
@@ -46,13 +47,7 @@ fn jitter(tris: &[Triangle], amp: f32, seed: u64) -> Vec<Triangle> {
 
 fn rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Pcg32::new(seed, 5);
-    let mut p = || {
-        Vec3A::new(
-            rng.range_f32(bounds.min.x, bounds.max.x),
-            rng.range_f32(bounds.min.y, bounds.max.y),
-            rng.range_f32(bounds.min.z, bounds.max.z),
-        )
-    };
+    let mut p = || point_in(bounds, &mut rng);
     (0..n)
         .map(|i| {
             let (o, e) = (p(), p());
