@@ -28,6 +28,23 @@ pub enum Error {
     /// is checked before it is used, never traced unchecked).
     #[error("the built tree is invalid: {0}")]
     InvalidTree(#[from] ValidationError),
+    /// [`Instances::build`](crate::Instances::build) refused a placement (a missing mesh, a
+    /// non-finite or singular transform).
+    #[error(transparent)]
+    Instance(#[from] sahara_traverse::instance::InstanceError),
+    /// [`Accel::refit`](crate::Accel::refit) was given a triangle with a NaN or infinite
+    /// coordinate (the structure is left unchanged).
+    #[error(transparent)]
+    Refit(#[from] sahara_bvh::RefitError),
+    /// [`Accel::refit`](crate::Accel::refit) was given another number of triangles than the
+    /// structure holds.
+    #[error("refit needs {expected} triangles (one per triangle of the structure), got {given}")]
+    RefitCount {
+        /// Triangles in the structure.
+        expected: usize,
+        /// Triangles given.
+        given: usize,
+    },
     /// The thread pool for [`BuildOptions::threads`](crate::BuildOptions::threads) could not
     /// be created.
     #[error("cannot create the build's thread pool: {0}")]

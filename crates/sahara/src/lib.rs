@@ -27,11 +27,15 @@
 //! an invalid ray (NaN or infinite origin, zero or non-finite direction, `tmin > tmax`; see
 //! [`Ray::is_valid`]) misses.
 //!
-//! **Not here yet.** User primitives (boxes plus an intersection callback), any-hit filters,
-//! instances (a two-level structure) and refit are being added to `sahara-traverse`; they
-//! will appear here as `Accel::build_boxes`, an `Instances` type next to [`Accel`], and
-//! `Accel::refit`, with the instance set stored in version 2 of the [`file`] format. Until
-//! then, the lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! * [`Instances`] places many copies of a few [`Accel`]s with affine transforms (a two-level
+//!   structure) and traces them as one scene; [`Accel::refit`] moves the vertices and updates
+//!   the bounds of the tree and of its layout without rebuilding.
+//!
+//! **Not here yet.** User primitives (boxes plus an intersection callback) and any-hit
+//! filters are in `sahara-traverse` (`custom`, `WideBvh::closest_hit_custom`,
+//! `WideBvh::closest_hit_filtered`; `docs/primitives.md`) but have no façade type yet, and
+//! the saved [`file`] format holds one [`Accel`], not an instance set (version 2 is reserved
+//! for it). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example
@@ -42,6 +46,7 @@
 
 mod error;
 pub mod file;
+mod instances;
 mod quality;
 
 use std::io::{Read, Write};
@@ -50,6 +55,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 pub use error::{BuildError, Error, LoadError, ValidationError};
+pub use instances::{Affine3A, InstanceHit, Instances};
 pub use quality::{BuildOptions, Quality};
 pub use sahara_bvh::Bvh;
 pub use sahara_geom::{Aabb, Ray, Triangle, Vec3, Vec3A};
@@ -207,6 +213,32 @@ impl Accel {
             .with_min_len(64)
             .map(|r| self.any_hit(r))
             .collect()
+    }
+
+    /// Moves the triangles to `triangles` (the same number, in the same order: triangle `i`'s
+    /// new position) and refits the tree and its 8-wide layout bottom-up, keeping their
+    /// topology: much cheaper than a rebuild, and exact (every answer equals brute force over
+    /// the new triangles), but the tree's quality decays as the motion grows
+    /// (`docs/refit.md` measures how fast). A tree with spatial splits ([`Quality::High`],
+    /// [`Quality::Best`]) is refitted with whole triangle boxes: still exact, looser.
+    ///
+    /// Fails, leaving the structure unchanged, with [`Error::RefitCount`] when the count
+    /// differs and [`Error::Refit`] on a NaN or infinite coordinate.
+    pub fn refit(&mut self, triangles: &[Triangle]) -> Result<(), Error> {
+        if triangles.len() != self.triangles.len() {
+            return Err(Error::RefitCount {
+                expected: self.triangles.len(),
+                given: triangles.len(),
+            });
+        }
+        // Checked before anything changes, so that the tree and the layout stay in step.
+        if let Some(i) = triangles.iter().position(|t| !t.is_finite()) {
+            return Err(sahara_bvh::RefitError::InvalidBox { prim: i as u32 }.into());
+        }
+        self.bvh.refit_triangles(triangles)?;
+        self.wide.refit_triangles(triangles)?;
+        self.triangles.copy_from_slice(triangles);
+        Ok(())
     }
 
     /// Writes the structure (format in [`file`]).
