@@ -92,6 +92,10 @@ pub enum LoadError {
     /// The embedded tree file is invalid (its own header, checksum or structure).
     #[error("the stored tree: {0}")]
     Tree(#[from] sahara_bvh::LoadError),
+    /// A saved instance set's placements are inconsistent: their byte count, a missing mesh
+    /// or a non-finite or singular transform (the message says which).
+    #[error("the stored instance set is invalid: {0}")]
+    InvalidInstances(String),
     /// The stored tree does not fit the stored triangles.
     #[error("the stored tree does not fit the stored triangles: {0}")]
     InvalidTree(ValidationError),

@@ -22,7 +22,26 @@
 //! (checksums, validation, collapse) against 18 ms for a `Medium` build and 1.3 s for `High`
 //! (one run, loaded machine), so caching pays for `High` and `Best`.
 //!
-//! Version 2 will add the instance set when instances land (see the crate docs).
+//! An instance set ([`crate::Instances`]) has a file of its own:
+//!
+//! ```text
+//! offset  size   field
+//! 0       8      magic "SAHARINS"
+//! 8       4      version (u32; this is version 1)
+//! 12      4      quality code of the top level
+//! 16      4      c_t (f32 bits)
+//! 20      4      c_i (f32 bits)
+//! 24      8      mesh count m (u64)
+//! 32      8      placement count p (u64)
+//! 40      8      payload length in bytes (u64)
+//! 48      8      FNV-1a 64 checksum of bytes 8..48 and of the payload
+//! 56      ...    payload: m meshes, each a u64 length and a complete `SAHARACC` file;
+//!                then p placements of 52 bytes: mesh index (u32) and the transform's
+//!                12 f32 (the 3×3 matrix column by column, then the translation)
+//! ```
+//!
+//! The top level is not stored: loading rebuilds it with the stored quality level's builder
+//! over the placements' world boxes, which gives the same tree (builders are deterministic).
 
 use std::io::{Read, Write};
 
@@ -30,7 +49,7 @@ use sahara_bvh::Bvh;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::CostModel;
 
-use crate::{Accel, LoadError, Quality};
+use crate::{Accel, Affine3A, BuildOptions, Error, Instances, LoadError, Quality};
 
 /// The first eight bytes of every saved acceleration structure.
 pub const MAGIC: [u8; 8] = *b"SAHARACC";
@@ -165,4 +184,146 @@ pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
     let bvh = Bvh::load(&mut tree_bytes)?;
     bvh.validate(&triangles).map_err(LoadError::InvalidTree)?;
     Ok(Accel::assemble(triangles, bvh, quality, cost))
+}
+
+/// The first eight bytes of a saved instance set.
+pub const INSTANCES_MAGIC: [u8; 8] = *b"SAHARINS";
+const INSTANCES_HEADER_LEN: usize = 56;
+const PLACEMENT_BYTES: usize = 52;
+
+pub(crate) fn save_instances<W: Write>(set: &Instances, w: &mut W) -> std::io::Result<()> {
+    let mut payload = Vec::new();
+    for mesh in set.meshes() {
+        let mut bytes = Vec::new();
+        save(mesh, &mut bytes)?;
+        payload.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
+        payload.extend_from_slice(&bytes);
+    }
+    for &(mesh, m) in set.placements() {
+        payload.extend_from_slice(&(mesh as u32).to_le_bytes());
+        for x in m.to_cols_array() {
+            payload.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let options = set.options();
+    let mut header = Vec::with_capacity(INSTANCES_HEADER_LEN);
+    header.extend_from_slice(&INSTANCES_MAGIC);
+    header.extend_from_slice(&VERSION.to_le_bytes());
+    header.extend_from_slice(&options.quality.code().to_le_bytes());
+    header.extend_from_slice(&options.cost.traversal.to_le_bytes());
+    header.extend_from_slice(&options.cost.intersection.to_le_bytes());
+    header.extend_from_slice(&(set.meshes().len() as u64).to_le_bytes());
+    header.extend_from_slice(&(set.placements().len() as u64).to_le_bytes());
+    header.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    let sum = checksum(&header[8..48], &payload);
+    header.extend_from_slice(&sum.to_le_bytes());
+    w.write_all(&header)?;
+    w.write_all(&payload)
+}
+
+pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError> {
+    let mut header = [0u8; INSTANCES_HEADER_LEN];
+    let mut got = 0;
+    while got < INSTANCES_HEADER_LEN {
+        match r.read(&mut header[got..]) {
+            Ok(0) => break,
+            Ok(k) => got += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    if got >= INSTANCES_MAGIC.len() && header[..INSTANCES_MAGIC.len()] != INSTANCES_MAGIC {
+        return Err(LoadError::BadMagic);
+    }
+    let total = |n: u64| n.saturating_add(INSTANCES_HEADER_LEN as u64);
+    if got < INSTANCES_HEADER_LEN {
+        return Err(LoadError::Truncated {
+            expected: INSTANCES_HEADER_LEN as u64,
+            actual: got as u64,
+        });
+    }
+    let u32_at =
+        |o: usize| u32::from_le_bytes([header[o], header[o + 1], header[o + 2], header[o + 3]]);
+    let u64_at = |o: usize| u64::from(u32_at(o)) | u64::from(u32_at(o + 4)) << 32;
+    let version = u32_at(8);
+    if version != VERSION {
+        return Err(LoadError::UnsupportedVersion(version));
+    }
+    let (n_meshes, n_placements, expected, sum) = (u64_at(24), u64_at(32), u64_at(40), u64_at(48));
+    // At most the announced bytes plus one: the allocation follows the bytes present.
+    let mut payload = Vec::new();
+    r.take(expected.saturating_add(1))
+        .read_to_end(&mut payload)?;
+    let actual = payload.len() as u64;
+    if actual < expected {
+        return Err(LoadError::Truncated {
+            expected: total(expected),
+            actual: total(actual),
+        });
+    }
+    if actual > expected {
+        let mut rest = Vec::new();
+        r.take(1 << 20).read_to_end(&mut rest)?;
+        return Err(LoadError::TrailingData(
+            actual - expected + rest.len() as u64,
+        ));
+    }
+    if checksum(&header[8..48], &payload) != sum {
+        return Err(LoadError::Checksum);
+    }
+    let quality = Quality::from_code(u32_at(12)).ok_or(LoadError::UnknownQuality(u32_at(12)))?;
+    let cost = CostModel {
+        traversal: f32::from_bits(u32_at(16)),
+        intersection: f32::from_bits(u32_at(20)),
+    };
+    // The payload is consumed front to back; a count or length that runs past its end is
+    // a truncation of the inner data.
+    let mut rest: &[u8] = &payload;
+    let short = || LoadError::Truncated {
+        expected: u64::MAX,
+        actual: total(actual),
+    };
+    let mut meshes = Vec::new();
+    for _ in 0..n_meshes {
+        if rest.len() < 8 {
+            return Err(short());
+        }
+        let (len, tail) = rest.split_at(8);
+        let len = u64::from_le_bytes(len.try_into().expect("8 bytes"));
+        if len > tail.len() as u64 {
+            return Err(short());
+        }
+        let (mut bytes, tail) = tail.split_at(len as usize);
+        meshes.push(load(&mut bytes)?);
+        rest = tail;
+    }
+    let placement_bytes = n_placements.checked_mul(PLACEMENT_BYTES as u64);
+    if placement_bytes != Some(rest.len() as u64) {
+        return Err(LoadError::InvalidInstances(format!(
+            "{} placements announced, {} bytes left for them",
+            n_placements,
+            rest.len()
+        )));
+    }
+    let placements: Vec<(usize, Affine3A)> = rest
+        .chunks_exact(PLACEMENT_BYTES)
+        .map(|c| {
+            let f = |i: usize| {
+                let o = 4 + 4 * i;
+                f32::from_le_bytes([c[o], c[o + 1], c[o + 2], c[o + 3]])
+            };
+            let mesh = u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as usize;
+            let m: [f32; 12] = std::array::from_fn(f);
+            (mesh, Affine3A::from_cols_array(&m))
+        })
+        .collect();
+    let options = BuildOptions {
+        quality,
+        cost,
+        threads: None,
+    };
+    Instances::build(meshes, &placements, options).map_err(|e| match e {
+        Error::Build(_) => LoadError::InvalidCostModel,
+        other => LoadError::InvalidInstances(other.to_string()),
+    })
 }

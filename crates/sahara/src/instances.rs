@@ -39,6 +39,8 @@ pub use sahara_traverse::instance::InstanceHit;
 #[derive(Clone, Debug)]
 pub struct Instances {
     meshes: Vec<Accel>,
+    placements: Vec<(usize, Affine3A)>,
+    options: BuildOptions,
     set: InstanceSet<Bvh8>,
 }
 
@@ -79,7 +81,40 @@ impl Instances {
         if let Some(e) = failure {
             return Err(e.into());
         }
-        Ok(Instances { meshes, set: set? })
+        Ok(Instances {
+            meshes,
+            placements: placements.to_vec(),
+            options: BuildOptions {
+                threads: None,
+                ..options
+            },
+            set: set?,
+        })
+    }
+
+    /// The placements, as given to [`Instances::build`].
+    pub fn placements(&self) -> &[(usize, Affine3A)] {
+        &self.placements
+    }
+
+    /// The quality level and cost model of the top level (the build threads are not kept).
+    pub fn options(&self) -> BuildOptions {
+        self.options
+    }
+
+    /// Writes the instance set: every mesh (each as a complete [`Accel`] file) and the
+    /// placements. The top level is not stored: [`Instances::load`] rebuilds it with the same
+    /// deterministic builder (it is over one box per instance, so this is cheap). Format in
+    /// [`crate::file`].
+    pub fn save<W: std::io::Write>(&self, w: &mut W) -> std::io::Result<()> {
+        crate::file::save_instances(self, w)
+    }
+
+    /// Reads what [`Instances::save`] wrote; every mesh is checked as [`Accel::load`] checks
+    /// it, and the placements as [`Instances::build`] checks them. A broken, truncated or
+    /// foreign file is a [`LoadError`](crate::LoadError), never a panic.
+    pub fn load<R: std::io::Read>(r: &mut R) -> Result<Instances, crate::LoadError> {
+        crate::file::load_instances(r)
     }
 
     /// The closest hit through every instance in `[ray.tmin, ray.tmax]`, or `None`. Invalid

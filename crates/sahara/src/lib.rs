@@ -33,9 +33,8 @@
 //!
 //! **Not here yet.** User primitives (boxes plus an intersection callback) and any-hit
 //! filters are in `sahara-traverse` (`custom`, `WideBvh::closest_hit_custom`,
-//! `WideBvh::closest_hit_filtered`; `docs/primitives.md`) but have no façade type yet, and
-//! the saved [`file`] format holds one [`Accel`], not an instance set (version 2 is reserved
-//! for it). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! `WideBvh::closest_hit_filtered`; `docs/primitives.md`) but have no façade type yet
+//! ([`Instances::save`] and [`Accel::save`] store the rest). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example

@@ -167,3 +167,72 @@ fn bad_refits_leave_the_structure_unchanged() {
     assert_eq!(accel.wide().fingerprint(), wide0);
     assert_eq!(accel.triangles(), &tris[..]);
 }
+
+#[test]
+fn instance_sets_save_and_load() {
+    let meshes = vec![
+        Accel::build(&mixed_soup(60, 21), Quality::Medium).unwrap(),
+        Accel::build(&mesh_like(4, 2), Quality::High).unwrap(),
+    ];
+    let placements: Vec<(usize, Affine3A)> = (0..9)
+        .map(|i| {
+            let m = Affine3A::from_rotation_translation(
+                glam::Quat::from_rotation_z(0.7 * i as f32),
+                Vec3::new(3.0 * (i % 3) as f32, 3.0 * (i / 3) as f32, 0.5),
+            );
+            (i % 2, m)
+        })
+        .collect();
+    let scene = Instances::build(meshes, &placements, Quality::Fast).unwrap();
+    let mut bytes = Vec::new();
+    scene.save(&mut bytes).unwrap();
+    let back = Instances::load(&mut bytes.as_slice()).unwrap();
+    assert_eq!(back.placements(), scene.placements());
+    assert_eq!(back.options(), scene.options());
+    assert_eq!(
+        back.set().top_level().fingerprint(),
+        scene.set().top_level().fingerprint()
+    );
+    for (a, b) in back.meshes().iter().zip(scene.meshes()) {
+        assert_eq!(a.wide().fingerprint(), b.wide().fingerprint());
+    }
+    let world = bounds(
+        scene
+            .set()
+            .world_boxes()
+            .iter()
+            .flat_map(|b| [b.min, b.max]),
+    );
+    let rays = rays(&world, 500, 3);
+    assert_eq!(back.closest_hits(&rays), scene.closest_hits(&rays));
+    // Every truncation and every flip of one of three bits per byte is a typed error.
+    for n in 0..bytes.len() {
+        assert!(
+            Instances::load(&mut &bytes[..n]).is_err(),
+            "truncated at {n}"
+        );
+    }
+    for i in 0..bytes.len() {
+        for bit in [0, 3, 7] {
+            let mut b = bytes.clone();
+            b[i] ^= 1 << bit;
+            assert!(
+                Instances::load(&mut b.as_slice()).is_err(),
+                "byte {i} bit {bit}"
+            );
+        }
+    }
+    let mut padded = bytes.clone();
+    padded.push(0);
+    assert!(matches!(
+        Instances::load(&mut padded.as_slice()),
+        Err(sahara::LoadError::TrailingData(1))
+    ));
+    // An Accel file is not an instance set.
+    let mut accel = Vec::new();
+    scene.meshes()[0].save(&mut accel).unwrap();
+    assert!(matches!(
+        Instances::load(&mut accel.as_slice()),
+        Err(sahara::LoadError::BadMagic)
+    ));
+}
