@@ -5,7 +5,7 @@
 //! commit and says why in the commit message, with the SAH before and after (both are in the
 //! file).
 //!
-//! By default: every procedural and degenerate case, and the shared scenes under 150 000
+//! By default: every procedural and degenerate case, and the shared scenes under 100 000
 //! triangles (skipped, with a message, when `../shared/scenes` is absent). With
 //! `SAHARA_VERIFY_ALL=1` (what `cargo xtask verify` sets) every shared scene file. With
 //! `SAHARA_RECORD_TREE_HASHES=1` the rows of the cases run are written instead of checked
@@ -20,7 +20,7 @@ use sahara_geom::{Triangle, Vec3A};
 use sahara_scene::{Catalog, Procedural, DEFAULT_SEED};
 
 /// Shared scenes at or above this size are checked by `cargo xtask verify` only.
-const CI_SCENE_LIMIT: usize = 150_000;
+const CI_SCENE_LIMIT: usize = 100_000;
 
 fn table_path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/tree_hashes.tsv")
