@@ -94,10 +94,22 @@ pub(crate) fn save<W: Write>(accel: &Accel, w: &mut W) -> std::io::Result<()> {
     w.write_all(&payload)
 }
 
-pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
-    let mut header = [0u8; HEADER_LEN];
+/// The little-endian u32 at byte `o` of `h`.
+fn u32_at(h: &[u8], o: usize) -> u32 {
+    u32::from_le_bytes([h[o], h[o + 1], h[o + 2], h[o + 3]])
+}
+
+/// The little-endian u64 at byte `o` of `h`.
+fn u64_at(h: &[u8], o: usize) -> u64 {
+    u64::from(u32_at(h, o)) | u64::from(u32_at(h, o + 4)) << 32
+}
+
+/// Reads a header of `N` bytes that starts with `magic` and this build's [`VERSION`] (bytes
+/// 8..12): a foreign, short or other-version header is a typed error.
+fn read_header<R: Read, const N: usize>(r: &mut R, magic: &[u8; 8]) -> Result<[u8; N], LoadError> {
+    let mut header = [0u8; N];
     let mut got = 0;
-    while got < HEADER_LEN {
+    while got < N {
         match r.read(&mut header[got..]) {
             Ok(0) => break,
             Ok(k) => got += k,
@@ -105,33 +117,36 @@ pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
             Err(e) => return Err(e.into()),
         }
     }
-    if got >= MAGIC.len() && header[..MAGIC.len()] != MAGIC {
+    if got >= magic.len() && header[..magic.len()] != magic[..] {
         return Err(LoadError::BadMagic);
     }
-    if got < HEADER_LEN {
+    if got < N {
         return Err(LoadError::Truncated {
-            expected: HEADER_LEN as u64,
+            expected: N as u64,
             actual: got as u64,
         });
     }
-    let u32_at =
-        |o: usize| u32::from_le_bytes([header[o], header[o + 1], header[o + 2], header[o + 3]]);
-    let u64_at = |o: usize| u64::from(u32_at(o)) | u64::from(u32_at(o + 4)) << 32;
-    let version = u32_at(8);
+    let version = u32_at(&header, 8);
     if version != VERSION {
         return Err(LoadError::UnsupportedVersion(version));
     }
-    let (n_tris, tree_len, sum) = (u64_at(24), u64_at(32), u64_at(40));
-    let expected = n_tris
-        .checked_mul(TRIANGLE_BYTES)
-        .and_then(|a| a.checked_add(tree_len));
-    // Read at most what the header announces plus one byte (to detect trailing data): the
-    // allocation grows with the bytes present, never with the size fields.
+    Ok(header)
+}
+
+/// Reads the payload after a header of `header_len` bytes: exactly `expected` bytes (`None`
+/// when the header's size fields overflow). At most the announced bytes plus one are read
+/// (to detect trailing data), so the allocation grows with the bytes present, never with the
+/// size fields.
+fn read_payload<R: Read>(
+    r: &mut R,
+    expected: Option<u64>,
+    header_len: usize,
+) -> Result<Vec<u8>, LoadError> {
     let limit = expected.unwrap_or(u64::MAX).saturating_add(1);
     let mut payload = Vec::new();
     r.take(limit).read_to_end(&mut payload)?;
     let actual = payload.len() as u64;
-    let total = |n: u64| n.saturating_add(HEADER_LEN as u64);
+    let total = |n: u64| n.saturating_add(header_len as u64);
     let Some(expected) = expected else {
         return Err(LoadError::Truncated {
             expected: u64::MAX,
@@ -151,6 +166,18 @@ pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
             actual - expected + rest.len() as u64,
         ));
     }
+    Ok(payload)
+}
+
+pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
+    let header: [u8; HEADER_LEN] = read_header(r, &MAGIC)?;
+    let u32_at = |o: usize| u32_at(&header, o);
+    let u64_at = |o: usize| u64_at(&header, o);
+    let (n_tris, tree_len, sum) = (u64_at(24), u64_at(32), u64_at(40));
+    let expected = n_tris
+        .checked_mul(TRIANGLE_BYTES)
+        .and_then(|a| a.checked_add(tree_len));
+    let payload = read_payload(r, expected, HEADER_LEN)?;
     if checksum(&header[8..40], &payload) != sum {
         return Err(LoadError::Checksum);
     }
@@ -222,52 +249,13 @@ pub(crate) fn save_instances<W: Write>(set: &Instances, w: &mut W) -> std::io::R
 }
 
 pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError> {
-    let mut header = [0u8; INSTANCES_HEADER_LEN];
-    let mut got = 0;
-    while got < INSTANCES_HEADER_LEN {
-        match r.read(&mut header[got..]) {
-            Ok(0) => break,
-            Ok(k) => got += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e.into()),
-        }
-    }
-    if got >= INSTANCES_MAGIC.len() && header[..INSTANCES_MAGIC.len()] != INSTANCES_MAGIC {
-        return Err(LoadError::BadMagic);
-    }
-    let total = |n: u64| n.saturating_add(INSTANCES_HEADER_LEN as u64);
-    if got < INSTANCES_HEADER_LEN {
-        return Err(LoadError::Truncated {
-            expected: INSTANCES_HEADER_LEN as u64,
-            actual: got as u64,
-        });
-    }
-    let u32_at =
-        |o: usize| u32::from_le_bytes([header[o], header[o + 1], header[o + 2], header[o + 3]]);
-    let u64_at = |o: usize| u64::from(u32_at(o)) | u64::from(u32_at(o + 4)) << 32;
-    let version = u32_at(8);
-    if version != VERSION {
-        return Err(LoadError::UnsupportedVersion(version));
-    }
+    let header: [u8; INSTANCES_HEADER_LEN] = read_header(r, &INSTANCES_MAGIC)?;
+    let u32_at = |o: usize| u32_at(&header, o);
+    let u64_at = |o: usize| u64_at(&header, o);
     let (n_meshes, n_placements, expected, sum) = (u64_at(24), u64_at(32), u64_at(40), u64_at(48));
-    // At most the announced bytes plus one: the allocation follows the bytes present.
-    let mut payload = Vec::new();
-    r.take(expected.saturating_add(1))
-        .read_to_end(&mut payload)?;
+    let payload = read_payload(r, Some(expected), INSTANCES_HEADER_LEN)?;
     let actual = payload.len() as u64;
-    if actual < expected {
-        return Err(LoadError::Truncated {
-            expected: total(expected),
-            actual: total(actual),
-        });
-    }
-    if actual > expected {
-        let mut rest = Vec::new();
-        r.take(1 << 20).read_to_end(&mut rest)?;
-        return Err(LoadError::TrailingData(
-            actual - expected + rest.len() as u64,
-        ));
-    }
+    let total = |n: u64| n.saturating_add(INSTANCES_HEADER_LEN as u64);
     if checksum(&header[8..48], &payload) != sum {
         return Err(LoadError::Checksum);
     }
