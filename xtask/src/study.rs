@@ -8,13 +8,15 @@
 //! sweep tree with the same cost model and leaf size; SBVH for the spatial variant). Work per
 //! ray, `c_t · inner nodes + c_i · triangles` with the setting's own cost model, is counted
 //! exactly and is the primary, noise-free column; SAH, EPO and build time come with every row;
-//! `--speed` adds measured speed ratios (median of per-round ratios of interleaved rounds).
+//! `--speed` adds measured speed ratios (median of per-round ratios of interleaved rounds, with
+//! 95% bootstrap intervals; an undecided cell is rerun with more rounds, see [`needs_more_rounds`]).
 //!
 //! Results go to a folder (default `docs/results/<date>-study/`, quick runs
 //! `docs/results/<date>-study-quick/`): `study.csv`, one row per scene and setting, and
 //! `README.md`, rendered from the CSV alone by [`render_markdown`] (the eval report can call it
 //! on the latest saved CSV instead of rerunning the study; `--render <csv>` re-renders).
 
+use crate::eval::interval::{median_interval, Interval};
 use anyhow::{bail, Context, Result};
 use sahara_builders::popov::{PopovBuilder, PopovConfig};
 use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
@@ -450,6 +452,19 @@ const COLUMNS: &[&str] = &[
     "speed_bvh8_primary",
     "speed_bvh8_diffuse",
     "speed_bvh8_ao",
+    "speed_bvh2_primary_low",
+    "speed_bvh2_primary_high",
+    "speed_bvh2_diffuse_low",
+    "speed_bvh2_diffuse_high",
+    "speed_bvh2_ao_low",
+    "speed_bvh2_ao_high",
+    "speed_bvh8_primary_low",
+    "speed_bvh8_primary_high",
+    "speed_bvh8_diffuse_low",
+    "speed_bvh8_diffuse_high",
+    "speed_bvh8_ao_low",
+    "speed_bvh8_ao_high",
+    "speed_rounds",
 ];
 
 const KINDS: [RayKind; 3] = [
@@ -511,8 +526,32 @@ fn work(
     Ok(out)
 }
 
-/// Speed of `tree` against `reference` per (layout, ray kind): the median over `rounds`
-/// interleaved rounds of the per-round ratio reference time / tree time (> 1 is faster).
+/// The most timed rounds one speed cell may take while its interval is still undecided.
+pub const MAX_SPEED_ROUNDS: usize = 60;
+
+/// A speed cell is settled when its 95% interval excludes 1, or is narrower than this (as a
+/// fraction of the estimate), or when [`MAX_SPEED_ROUNDS`] were spent.
+pub const SETTLED_WIDTH: f64 = 0.02;
+
+/// Whether a speed cell needs more rounds: its interval contains 1, is at least
+/// [`SETTLED_WIDTH`] wide, and fewer than [`MAX_SPEED_ROUNDS`] rounds were taken.
+pub fn needs_more_rounds(iv: &Interval, rounds: usize) -> bool {
+    iv.contains_one()
+        && (iv.high - iv.low) >= SETTLED_WIDTH * iv.estimate
+        && rounds < MAX_SPEED_ROUNDS
+}
+
+/// One speed cell: the median of per-round ratios with its 95% interval, and the rounds taken.
+#[derive(Clone, Copy, Debug)]
+struct SpeedCell {
+    interval: Interval,
+    rounds: usize,
+}
+
+/// Speed of `tree` against `reference` per (layout, ray kind): the median of the per-round
+/// ratios reference time / tree time (> 1 is faster) of interleaved rounds, with its
+/// bootstrap interval. Each cell starts with `rounds` rounds and takes `rounds` more while
+/// [`needs_more_rounds`] says it is undecided (the rerun rule of `docs/study.md`).
 fn speed(
     tree: &Tree,
     reference: &Tree,
@@ -520,13 +559,13 @@ fn speed(
     sets: &[RaySet],
     rounds: usize,
     threads: Option<usize>,
-) -> Result<Vec<f64>> {
+) -> Result<Vec<SpeedCell>> {
     let mut out = Vec::new();
     for layout in LAYOUTS {
         let a = crate::trace_cmd::make_tracer(layout, &tree.bvh, tris)?;
         let r = crate::trace_cmd::make_tracer(layout, &reference.bvh, tris)?;
         for set in sets {
-            let ratios = util::with_threads(threads, || {
+            let cell = util::with_threads(threads, || {
                 let time = |t: &dyn Tracer| {
                     let t0 = Instant::now();
                     std::hint::black_box(sahara_trace::trace_set(t, set));
@@ -534,22 +573,33 @@ fn speed(
                 };
                 time(a.as_ref());
                 time(r.as_ref());
-                let mut v: Vec<f64> = (0..rounds.max(1))
-                    .map(|i| {
+                let mut v: Vec<f64> = Vec::new();
+                loop {
+                    for _ in 0..rounds.max(1) {
                         // Alternate the order so neither tree always runs second.
-                        if i % 2 == 0 {
+                        let ratio = if v.len().is_multiple_of(2) {
                             let ta = time(a.as_ref());
                             time(r.as_ref()) / ta
                         } else {
                             let tr = time(r.as_ref());
                             tr / time(a.as_ref())
-                        }
-                    })
-                    .collect();
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
+                        };
+                        v.push(ratio);
+                    }
+                    let iv = median_interval(&v).unwrap_or(Interval {
+                        estimate: f64::NAN,
+                        low: f64::NAN,
+                        high: f64::NAN,
+                    });
+                    if !needs_more_rounds(&iv, v.len()) {
+                        return SpeedCell {
+                            interval: iv,
+                            rounds: v.len(),
+                        };
+                    }
+                }
             })?;
-            out.push(ratios);
+            out.push(cell);
         }
     }
     Ok(out)
@@ -766,8 +816,17 @@ pub fn run(a: Args) -> Result<()> {
                 row.push(format!("{:.6}", rw[i]));
             }
             for i in 0..6 {
-                row.push(fmt_opt(sp.as_ref().map(|v| v[i])));
+                row.push(fmt_opt(sp.as_ref().map(|v| v[i].interval.estimate)));
             }
+            for i in 0..6 {
+                row.push(fmt_opt(sp.as_ref().map(|v| v[i].interval.low)));
+                row.push(fmt_opt(sp.as_ref().map(|v| v[i].interval.high)));
+            }
+            row.push(
+                sp.as_ref()
+                    .map(|v| v.iter().map(|c| c.rounds).max().unwrap_or(0).to_string())
+                    .unwrap_or_default(),
+            );
             let line = row.join(",") + "\n";
             csv.push_str(&line);
             std::fs::write(&csv_path, &csv)?;
@@ -968,14 +1027,30 @@ pub fn render_markdown(csv: &str) -> Result<String> {
         "Each setting's gains on each scene (reference ÷ builder; SAH, then bvh2 work for \
          primary / diffuse / AO, then bvh8 primary).\n"
     );
+    let has_intervals = rows.iter().any(|r| r.x("speed_bvh8_primary_low").is_some());
+    let speed_head = if has_intervals {
+        " bvh8 speed primary / diffuse / AO [95%] (rounds) |"
+    } else {
+        ""
+    };
     let _ = writeln!(
         md,
-        "| scene | triangles | factor | builder | setting | camera (inside) | SAH | primary | diffuse | AO | bvh8 primary |\n| --- | ---: | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |"
+        "| scene | triangles | factor | builder | setting | camera (inside) | SAH | primary | diffuse | AO | bvh8 primary |{speed_head}\n| --- | ---: | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |{}",
+        if has_intervals { " --- |" } else { "" }
     );
     for r in &rows {
+        let speed = if has_intervals {
+            let cells: Vec<String> = ["primary", "diffuse", "ao"]
+                .iter()
+                .map(|k| speed_cell(r, &format!("speed_bvh8_{k}")))
+                .collect();
+            format!(" {} ({}) |", cells.join(" / "), r.s("speed_rounds"))
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} | {} |{speed}",
             r.s("scene"),
             r.s("triangles"),
             r.s("factor"),
@@ -991,6 +1066,17 @@ pub fn render_markdown(csv: &str) -> Result<String> {
         );
     }
     Ok(md)
+}
+
+/// A speed cell with its interval, `≈` marking an interval that contains 1 (a tie).
+fn speed_cell(r: &Row, c: &str) -> String {
+    match (r.x(c), r.x(&format!("{c}_low")), r.x(&format!("{c}_high"))) {
+        (Some(e), Some(lo), Some(hi)) => {
+            let tie = if lo <= 1.0 && 1.0 <= hi { "≈" } else { "" };
+            format!("{tie}{e:.3} [{lo:.3}–{hi:.3}]")
+        }
+        (e, _, _) => fmt_cell(e),
+    }
 }
 
 fn fmt_cell(x: Option<f64>) -> String {
@@ -1021,13 +1107,56 @@ mod tests {
             row.push("8".into());
             row.push("10".into());
         }
-        row.extend(std::iter::repeat_n(String::new(), 6));
+        row.extend(std::iter::repeat_n(String::new(), 6 + 12 + 1));
         csv += &(row.join(",") + "\n");
         let md = render_markdown(&csv).unwrap();
         assert!(md.contains("## Factor: cost"), "{md}");
         // SAH gain 10/9, work gain 10/8, build 2×.
         assert!(md.contains("| 1.111 | 1.250 | 1.250 |"), "{md}");
         assert!(md.contains("| 2.000 | 1.250 (s) |"), "{md}");
+    }
+
+    #[test]
+    fn speed_intervals_render_with_ties_marked() {
+        let mut csv = COLUMNS.join(",") + "\n";
+        let mut row: Vec<String> = ["s", "10", "cost", "tsah-topk", "x", "sweep", "1", "1"]
+            .map(String::from)
+            .to_vec();
+        row.extend(["catalog", "false", "2", "1", "9", "10", "4", "5"].map(String::from));
+        for _ in 0..6 {
+            row.push("8".into());
+            row.push("10".into());
+        }
+        row.extend(["1.1", "1.0", "1.0", "1.05", "0.99", "1.2"].map(String::from));
+        row.extend(std::iter::repeat_n("0.5".to_string(), 6));
+        row.extend(["1.04", "1.06", "0.98", "1.03", "1.1", "1.3"].map(String::from));
+        row.push("15".into());
+        assert_eq!(row.len(), COLUMNS.len());
+        csv += &(row.join(",") + "\n");
+        let md = render_markdown(&csv).unwrap();
+        assert!(
+            md.contains(
+                "| 1.050 [1.040–1.060] / ≈0.990 [0.980–1.030] / 1.200 [1.100–1.300] (15) |"
+            ),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn undecided_speed_cells_get_more_rounds() {
+        let iv = |estimate, low, high| Interval {
+            estimate,
+            low,
+            high,
+        };
+        // Contains 1 and is wide: rerun.
+        assert!(needs_more_rounds(&iv(1.01, 0.97, 1.05), 5));
+        // Excludes 1: settled.
+        assert!(!needs_more_rounds(&iv(1.04, 1.01, 1.07), 5));
+        // Contains 1 but narrower than 2%: a tie, settled.
+        assert!(!needs_more_rounds(&iv(1.0, 0.995, 1.01), 5));
+        // Out of rounds: settled whatever the interval.
+        assert!(!needs_more_rounds(&iv(1.01, 0.9, 1.1), MAX_SPEED_ROUNDS));
     }
 
     #[test]

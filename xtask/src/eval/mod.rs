@@ -64,6 +64,11 @@ pub struct Args {
     /// Timed interleaved trace rounds (default 15, quick 11, full 11).
     #[arg(long)]
     pub passes: Option<usize>,
+    /// Seconds of timed rounds per scene and ray type (default 20, full 0 = no budget): when
+    /// the warm-up round shows that `--passes` rounds would take longer, fewer are traced, but
+    /// never fewer than 5 (see docs/evaluation.md).
+    #[arg(long)]
+    pub round_budget: Option<f64>,
     /// Timed builds per builder (default 3, full 5; builds slower than 1 s run once).
     #[arg(long)]
     pub build_runs: Option<usize>,
@@ -87,6 +92,8 @@ pub struct Settings {
     pub width: u32,
     pub height: u32,
     pub passes: usize,
+    /// Seconds of timed rounds per scene and ray type (0: always `passes` rounds).
+    pub round_budget: f64,
     pub build_runs: usize,
     pub threads: usize,
     pub seed: u64,
@@ -123,6 +130,9 @@ pub struct SceneInfo {
     pub camera: String,
     /// Where it comes from (`generator`, `cameras.tsv`, `command line`, `placed (…)`, …).
     pub camera_source: String,
+    /// Timed rounds per ray type (`primary`, …), fewer than `passes` where the round budget
+    /// cut them.
+    pub rounds: Vec<(String, usize)>,
 }
 
 /// A trace measurement with its comparisons.
@@ -289,6 +299,7 @@ impl Args {
             width: self.width.unwrap_or(pick(q, full, 256, 320, 1024)),
             height: self.height.unwrap_or(pick(q, full, 192, 240, 768)),
             passes: self.passes.unwrap_or(pick(q, full, 11, 15, 11)),
+            round_budget: self.round_budget.unwrap_or(pick(q, full, 20.0, 20.0, 0.0)),
             build_runs: self.build_runs.unwrap_or(pick(q, full, 3, 3, 5)),
             threads: util::thread_count(self.threads),
             seed: self.seed,
@@ -446,6 +457,7 @@ pub fn run(a: Args) -> Result<()> {
             diff_scale: 1.0,
             camera: scene.camera.to_string(),
             camera_source: scene.camera_source.clone(),
+            rounds: Vec::new(),
         };
         let samples: Vec<(String, Vec<sahara_geom::Ray>)> = sets
             .iter()
@@ -489,9 +501,14 @@ pub fn run(a: Args) -> Result<()> {
                 .zip(&tracers)
                 .flat_map(|(layout, ts)| ts[..timed_trees(layout)].iter().map(|t| t.as_ref()))
                 .collect();
-            let mut flat =
-                util::with_threads(a.threads, || interleaved_timings(&engines, set, s.passes))?
-                    .into_iter();
+            let samples = util::with_threads(a.threads, || {
+                interleaved_timings(&engines, set, s.passes, s.round_budget)
+            })?;
+            info.rounds.push((
+                set.kind.name().to_string(),
+                samples.first().map_or(0, Vec::len),
+            ));
+            let mut flat = samples.into_iter();
             timings.push(
                 s.layouts
                     .iter()
@@ -638,22 +655,39 @@ fn status(bar: &ProgressBar, msg: String) {
     bar.set_message(msg);
 }
 
-/// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds, each round
-/// tracing the whole set once with every tracer in turn; the seconds of every round, per
-/// tracer.
+/// The fewest timed rounds the round budget may leave (the bootstrap intervals need a few).
+pub const MIN_ROUNDS: usize = 5;
+
+/// How many timed rounds fit `budget` seconds when one round takes `round` seconds: `passes`
+/// when they fit (or when the budget is 0, off), else as many as fit, but at least
+/// [`MIN_ROUNDS`] (and never more than `passes`).
+pub fn rounds_within(round: f64, budget: f64, passes: usize) -> usize {
+    if budget <= 0.0 || round <= 0.0 || round * passes as f64 <= budget {
+        return passes;
+    }
+    ((budget / round).floor() as usize).clamp(MIN_ROUNDS.min(passes), passes)
+}
+
+/// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds (fewer when
+/// they would exceed `budget` seconds, see [`rounds_within`]), each round tracing the whole set
+/// once with every tracer in turn; the seconds of every round, per tracer.
 fn interleaved_timings(
     tracers: &[&dyn sahara_trace::Tracer],
     set: &RaySet,
     passes: usize,
+    budget: f64,
 ) -> Vec<Vec<f64>> {
-    let mut samples = vec![Vec::with_capacity(passes); tracers.len()];
-    for round in 0..=passes.max(1) {
+    let warm_up = std::time::Instant::now();
+    for t in tracers {
+        std::hint::black_box(sahara_trace::trace_set(*t, set));
+    }
+    let rounds = rounds_within(warm_up.elapsed().as_secs_f64(), budget, passes.max(1));
+    let mut samples = vec![Vec::with_capacity(rounds); tracers.len()];
+    for _ in 0..rounds {
         for (i, t) in tracers.iter().enumerate() {
             let t0 = std::time::Instant::now();
             std::hint::black_box(sahara_trace::trace_set(*t, set));
-            if round > 0 {
-                samples[i].push(t0.elapsed().as_secs_f64());
-            }
+            samples[i].push(t0.elapsed().as_secs_f64());
         }
     }
     samples
@@ -903,4 +937,23 @@ fn copy_dir(from: &Path, to: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod round_budget_tests {
+    use super::{rounds_within, MIN_ROUNDS};
+
+    #[test]
+    fn rounds_that_fit_the_budget_are_all_traced() {
+        assert_eq!(rounds_within(1.0, 20.0, 15), 15);
+        assert_eq!(rounds_within(1.0, 0.0, 15), 15, "a budget of 0 is off");
+        assert_eq!(rounds_within(100.0, 0.0, 15), 15);
+    }
+
+    #[test]
+    fn slow_rounds_are_cut_but_never_below_the_minimum() {
+        assert_eq!(rounds_within(2.0, 20.0, 15), 10);
+        assert_eq!(rounds_within(19.0, 20.0, 15), MIN_ROUNDS);
+        assert_eq!(rounds_within(19.0, 20.0, 3), 3, "never more than asked for");
+    }
 }

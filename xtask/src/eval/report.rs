@@ -57,7 +57,7 @@ fn title(d: &mut Doc, c: &Ctx) {
     let (r, s) = (c.r, &c.r.meta.settings);
     d.h(1, "sahara evaluation");
     d.p(format!(
-        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all: {} scenes, {} builders, {}×{} pixels, {} interleaved rounds.{}",
+        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all: {} scenes, {} builders, {}×{} pixels, {} interleaved rounds{}.{}",
         r.meta.date,
         r.meta.commit,
         r.meta.cpu,
@@ -69,6 +69,15 @@ fn title(d: &mut Doc, c: &Ctx) {
         s.width,
         s.height,
         s.passes,
+        if s.round_budget > 0.0 {
+            format!(
+                " (fewer, at least {}, where they would take over {:.0} s per scene and ray type)",
+                super::MIN_ROUNDS.min(s.passes),
+                s.round_budget
+            )
+        } else {
+            String::new()
+        },
         if s.quick {
             " This is the **--quick** matrix."
         } else if s.full {
@@ -198,13 +207,24 @@ fn run_notes(d: &mut Doc, c: &Ctx) {
     d.h(2, "How these numbers were taken");
     d.p(format!(
         "Cost model c_t = {}, c_i = {}. Images {}×{}; every tree and layout of a scene traces each ray set once per round, \
-         in turn, for {} timed rounds after one warm-up round; Mrays/s are the median with min–max. \
+         in turn, for {} timed rounds after one warm-up round{}; Mrays/s are the median with min–max. \
          Each build is the median of up to {} runs (builds over 1 s run once). Secondary-ray seed {}.",
         s.cost_model.traversal,
         s.cost_model.intersection,
         s.width,
         s.height,
         s.passes,
+        if s.round_budget > 0.0 {
+            format!(
+                " (fewer, but at least {}, when the warm-up round shows that {} rounds would take over {:.0} s: \
+                 the scene's section then says how many)",
+                super::MIN_ROUNDS.min(s.passes),
+                s.passes,
+                s.round_budget
+            )
+        } else {
+            String::new()
+        },
         s.build_runs,
         s.seed,
     ));
@@ -517,6 +537,18 @@ fn heat_maps(d: &mut Doc, c: &Ctx) {
     for sc in &c.r.scenes {
         d.h(3, sc.name.clone());
         d.p(format!("Camera ({}): `{}`.", sc.camera_source, sc.camera));
+        let cut: Vec<String> = sc
+            .rounds
+            .iter()
+            .filter(|(_, n)| *n < c.r.meta.settings.passes)
+            .map(|(kind, n)| format!("{kind} {n}"))
+            .collect();
+        if !cut.is_empty() {
+            d.p(format!(
+                "Timed rounds cut by the round budget (slow rounds): {}.",
+                cut.join(", ")
+            ));
+        }
         d.p(format!(
             "Top of the heat maps' colour scale: {:.0} work units per pixel; difference maps: ±{:.0}.",
             sc.heat_scale, sc.diff_scale
@@ -1019,6 +1051,7 @@ mod tests {
             width: 32,
             height: 24,
             passes: 3,
+            round_budget: 20.0,
             build_runs: 3,
             threads: 2,
             seed: 1,
@@ -1050,6 +1083,7 @@ mod tests {
                 diff_scale: 12.0 + i as f64,
                 camera: "eye=0,0,5 target=0,0,0 up=0,1,0 fov=60".into(),
                 camera_source: "generator".into(),
+                rounds: vec![("primary".to_string(), if i == 0 { 2 } else { 3 })],
             })
             .collect();
         let mut builds = Vec::new();
