@@ -124,6 +124,7 @@ fn report_html_in_chromium() {
     for section in [
         "<h1>sahara evaluation</h1>",
         "<h2>Summary</h2>",
+        "<h2>The paper's claims (from the study's saved run)</h2>",
         "<h2>Build time against trace cost",
         "<h2>Scenes: render, work heat maps",
         "<h2>Tables</h2>",

@@ -14,6 +14,7 @@ pub mod interval;
 mod plot;
 mod predict;
 mod report;
+pub mod saved_study;
 
 use crate::bvh_cmd::{build_and_measure, BuildReport};
 use crate::trace_cmd::{self, TraceReport};
@@ -171,6 +172,8 @@ pub struct Results {
     pub predictors: Vec<predict::PredictorRow>,
     pub predicted_points: Vec<predict::PredictedPoint>,
     pub scaling: Vec<crate::scaling::Series>,
+    /// The study's claims table and its saved run (read from `docs/`, not recomputed).
+    pub study: Option<saved_study::SavedStudy>,
 }
 
 const REFERENCE: &str = "sweep";
@@ -633,6 +636,7 @@ pub fn run(a: Args) -> Result<()> {
         predictors,
         predicted_points,
         scaling,
+        study: saved_study::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("..")),
     };
     report::write_all(&out, &results)?;
     link_latest(&out)?;

@@ -35,8 +35,7 @@ fn report(c: &Ctx) -> Doc {
     let mut d = Doc::default();
     title(&mut d, c);
     summary(&mut d, c);
-    // Hook: the paper's claims table goes here, from the study's saved run, once that study
-    // exists (it is not recomputed by the eval).
+    claims(&mut d, c);
     speed_against_error(&mut d, c);
     heat_maps(&mut d, c);
     d.h(2, "Tables");
@@ -198,6 +197,25 @@ fn build_factor(c: &Ctx, builder: &str) -> Option<f64> {
             })
             .collect();
     geomean(&v)
+}
+
+/// The paper's claims against our best figures, from the study's saved run (`docs/study.md`
+/// and the newest study folder under `docs/results/`): read, not recomputed.
+fn claims(d: &mut Doc, c: &Ctx) {
+    let Some(st) = &c.r.study else {
+        return;
+    };
+    d.h(2, "The paper's claims (from the study's saved run)");
+    d.p(format!(
+        "Our reading of the paper's claims against our best measured figures, as written in \
+         `docs/study.md`{}. These are not recomputed by this run: `cargo xtask study` measures \
+         them (hours for the full study).",
+        st.run
+            .as_ref()
+            .map(|r| format!(" from the study run saved in `{r}`"))
+            .unwrap_or_default()
+    ));
+    d.text_table(st.head.clone(), st.rows.clone());
 }
 
 /// The protocol: cost model, image size, rounds and runs, seed; what the ratios and their
@@ -753,6 +771,8 @@ enum Block {
     Para(String),
     /// Head and rows; the first column is left-aligned, the others right-aligned.
     Table(Vec<String>, Vec<Vec<String>>),
+    /// Head and rows of prose, every column left-aligned.
+    TextTable(Vec<String>, Vec<Vec<String>>),
     /// An SVG plot: file name (relative to the report), alt text, document.
     Svg {
         path: String,
@@ -784,6 +804,10 @@ impl Doc {
     ) {
         let head = head.into_iter().map(Into::into).collect();
         self.blocks.push(Block::Table(head, rows));
+    }
+
+    fn text_table(&mut self, head: Vec<String>, rows: Vec<Vec<String>>) {
+        self.blocks.push(Block::TextTable(head, rows));
     }
 
     /// `plot`, saved as `path` (written by [`write_all`]) and drawn inline in HTML.
@@ -825,6 +849,7 @@ body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0
 table{border-collapse:collapse;margin:1em 0;font-size:13px}
 th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}
 th:first-child,td:first-child{text-align:left}
+table.text th,table.text td{text-align:left;vertical-align:top}
 th{background:#f3f3f3}
 img{max-width:100%;image-rendering:pixelated;border:1px solid #ddd}
 .gallery{display:flex;flex-wrap:wrap;gap:10px}
@@ -844,10 +869,11 @@ impl Block {
             Block::Para(t) => {
                 let _ = writeln!(s, "{t}\n");
             }
-            Block::Table(head, rows) => {
+            Block::Table(head, rows) | Block::TextTable(head, rows) => {
+                let text = matches!(self, Block::TextTable(..));
                 let _ = writeln!(s, "| {} |", head.join(" | "));
                 let rule: Vec<&str> = (0..head.len())
-                    .map(|i| if i == 0 { "---" } else { "---:" })
+                    .map(|i| if i == 0 || text { "---" } else { "---:" })
                     .collect();
                 let _ = writeln!(s, "|{}|", rule.join("|"));
                 for r in rows {
@@ -878,8 +904,12 @@ impl Block {
             Block::Para(t) => {
                 let _ = writeln!(s, "<p>{}</p>", inline_md(&esc(t)));
             }
-            Block::Table(head, rows) => {
-                s.push_str("<table><thead><tr>");
+            Block::Table(head, rows) | Block::TextTable(head, rows) => {
+                s.push_str(if matches!(self, Block::TextTable(..)) {
+                    "<table class=\"text\"><thead><tr>"
+                } else {
+                    "<table><thead><tr>"
+                });
                 for h in head {
                     let _ = write!(s, "<th>{}</th>", esc(h));
                 }
@@ -1261,6 +1291,14 @@ mod tests {
             predictors,
             predicted_points,
             scaling,
+            study: Some(crate::eval::saved_study::SavedStudy {
+                run: Some("docs/results/2024-01-01-study".into()),
+                head: vec!["claim".into(), "our figure".into()],
+                rows: vec![vec![
+                    "37% faster <primary>".into(),
+                    "**1.26** (`sponza`)".into(),
+                ]],
+            }),
         }
     }
 
