@@ -18,7 +18,9 @@
 //! Two environment variables change the scene, for experiments only (the report's layout
 //! name stays `embree`): `SAHARA_EMBREE_QUALITY=low|medium|high` and
 //! `SAHARA_EMBREE_ROBUST=1` (`RTC_SCENE_FLAG_ROBUST`). `SAHARA_EMBREE_CONFIG` is passed to
-//! `rtcNewDevice` (e.g. `isa=avx2` or `verbose=1`, which prints the ISA to stdout).
+//! `rtcNewDevice` (e.g. `verbose=1`, which prints the ISA to stdout), after the `isa=` that
+//! matches sahara's `--backend` ([`matching_isa`]: `sse2`, `avx2`, `avx512`; none for
+//! `portable`), so that an `isa=` of the user's wins.
 //!
 //! Departures from the [`Tracer`] contract, inherent to Embree:
 //!
@@ -33,7 +35,7 @@
 use anyhow::{bail, ensure, Context, Result};
 use embree::sys;
 use sahara_geom::{Ray, Triangle};
-use sahara_trace::{Hit, Tracer, WorkCounters};
+use sahara_trace::{Backend, Hit, Tracer, WorkCounters};
 use std::ffi::CString;
 use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex, Weak};
@@ -59,6 +61,8 @@ pub struct Config {
     quality: u8,
     /// `RTC_SCENE_FLAG_ROBUST`.
     robust: bool,
+    /// The `isa=` of the device configuration (from `--backend`), `None`: Embree's choice.
+    isa: Option<&'static str>,
 }
 
 impl Default for Config {
@@ -66,8 +70,53 @@ impl Default for Config {
         Self {
             quality: 1,
             robust: false,
+            isa: None,
         }
     }
+}
+
+/// The Embree ISA that matches sahara's `backend` (Embree's names for the device
+/// configuration's `isa=`): `sse2` for SSE2, `avx2` for AVX2, `avx512` for AVX-512; `None` for
+/// the portable kernels, which Embree has no counterpart of (it then picks its own ISA).
+pub fn matching_isa(backend: Backend) -> Option<&'static str> {
+    match backend {
+        Backend::Portable => None,
+        Backend::Sse2 => Some("sse2"),
+        Backend::Avx2 => Some("avx2"),
+        Backend::Avx512 => Some("avx512"),
+    }
+}
+
+/// The device configuration for `rtcNewDevice`: `isa=…` when given, then the user's
+/// `SAHARA_EMBREE_CONFIG` (`user`), comma-separated. Embree reads the settings in order, so
+/// an `isa=` of the user's comes last and wins.
+pub fn device_config(isa: Option<&str>, user: &str) -> String {
+    let mut parts: Vec<&str> = Vec::new();
+    let own = isa.map(|i| format!("isa={i}"));
+    if let Some(o) = &own {
+        parts.push(o);
+    }
+    let user = user.trim().trim_matches(',');
+    if !user.is_empty() {
+        parts.push(user);
+    }
+    parts.join(",")
+}
+
+/// The last `isa=` of a device configuration (what Embree will run), if any.
+pub fn configured_isa(config: &str) -> Option<String> {
+    config.split(',').rev().find_map(|kv| {
+        let (k, v) = kv.split_once('=')?;
+        (k.trim() == "isa").then(|| v.trim().to_string())
+    })
+}
+
+/// What the reports' `backend` field says for Embree traced with sahara's `backend`: the ISA
+/// of the device configuration (`SAHARA_EMBREE_CONFIG` included), or `default` when Embree
+/// picks its own (portable backend, no `isa=`).
+pub fn reported_isa(backend: Backend) -> String {
+    let user = std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default();
+    configured_isa(&device_config(matching_isa(backend), &user)).unwrap_or_else(|| "default".into())
 }
 
 impl Config {
@@ -146,9 +195,9 @@ impl Scene {
             n.checked_mul(3).is_some_and(|v| v <= u32::MAX as usize),
             "{n} triangles are too many for one Embree geometry"
         );
-        let device_config = std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default();
-        let device_config =
-            CString::new(device_config).context("SAHARA_EMBREE_CONFIG contains a NUL byte")?;
+        let user = std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default();
+        let device_config = CString::new(device_config(config.isa, &user))
+            .context("SAHARA_EMBREE_CONFIG contains a NUL byte")?;
         // SAFETY: a NUL-terminated configuration string.
         let device = unsafe { sys::rtcNewDevice(device_config.as_ptr()) };
         if device.is_null() {
@@ -267,10 +316,36 @@ pub struct EmbreeTracer {
 }
 
 impl EmbreeTracer {
-    /// The tracer over `tris`, building the Embree scene unless one over the same triangles
-    /// with the same configuration ([`Config::from_env`]) is still alive.
+    /// The tracer over `tris` with Embree's own choice of ISA (see [`EmbreeTracer::with_backend`]).
+    #[cfg(test)]
     pub fn new(tris: &[Triangle]) -> Result<Self> {
-        let config = Config::from_env()?;
+        Self::with_isa(tris, None)
+    }
+
+    /// The tracer over `tris` with the Embree ISA matching sahara's `backend`
+    /// ([`matching_isa`]); for [`Backend::Portable`], which Embree has no counterpart of, a
+    /// note on stderr says that Embree runs its own choice.
+    pub fn with_backend(tris: &[Triangle], backend: Backend) -> Result<Self> {
+        let isa = matching_isa(backend);
+        if isa.is_none() {
+            static SAID: std::sync::Once = std::sync::Once::new();
+            SAID.call_once(|| {
+                eprintln!(
+                    "note: Embree has no portable (scalar) ISA to match --backend portable; \
+                     it runs the ISA it picks itself"
+                )
+            });
+        }
+        Self::with_isa(tris, isa)
+    }
+
+    /// The tracer over `tris`, building the Embree scene unless one over the same triangles
+    /// with the same configuration ([`Config::from_env`] and `isa`) is still alive.
+    fn with_isa(tris: &[Triangle], isa: Option<&'static str>) -> Result<Self> {
+        let config = Config {
+            isa,
+            ..Config::from_env()?
+        };
         let key = Key {
             ptr: tris.as_ptr() as usize,
             len: tris.len(),
@@ -383,53 +458,6 @@ impl Tracer for EmbreeTracer {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use sahara_geom::Vec3A;
-
-    fn quad() -> Vec<Triangle> {
-        let p = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
-        vec![
-            Triangle::new(p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1.0)),
-            Triangle::new(p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)),
-        ]
-    }
-
-    #[test]
-    fn hits_misses_and_invalid_rays() {
-        let tris = quad();
-        let t = EmbreeTracer::new(&tris).unwrap();
-        let down = Vec3A::new(0.0, 0.0, -1.0);
-        let r = Ray::new(Vec3A::new(0.25, 0.25, 2.0), down, 0.0, f32::INFINITY);
-        let h = t.closest_hit_fast(&r);
-        assert_eq!(h.prim, 0);
-        assert!((h.t - 2.0).abs() < 1e-5);
-        assert!((h.u - 0.25).abs() < 1e-5 && (h.v - 0.25).abs() < 1e-5);
-        assert!(t.any_hit_fast(&r));
-        let r = Ray::new(Vec3A::new(0.75, 0.75, 2.0), down, 0.0, f32::INFINITY);
-        assert_eq!(t.closest_hit_fast(&r).prim, 1);
-        let miss = Ray::new(Vec3A::new(2.0, 2.0, 2.0), down, 0.0, f32::INFINITY);
-        assert_eq!(t.closest_hit_fast(&miss), Hit::MISS);
-        assert!(!t.any_hit_fast(&miss));
-        let short = Ray::new(Vec3A::new(0.25, 0.25, 2.0), down, 0.0, 1.0);
-        assert!(!t.any_hit_fast(&short));
-        let nan = Ray::new(Vec3A::new(f32::NAN, 0.0, 2.0), down, 0.0, f32::INFINITY);
-        assert_eq!(t.closest_hit_fast(&nan), Hit::MISS);
-        assert!(!t.any_hit_fast(&nan));
-        // A second tracer over the same slice shares the scene.
-        let t2 = EmbreeTracer::new(&tris).unwrap();
-        assert!(Arc::ptr_eq(&t.scene, &t2.scene));
-    }
-
-    #[test]
-    fn empty_scene_misses() {
-        let t = EmbreeTracer::new(&[]).unwrap();
-        let r = Ray::new(Vec3A::ZERO, Vec3A::X, 0.0, f32::INFINITY);
-        assert_eq!(t.closest_hit_fast(&r), Hit::MISS);
-    }
-}
-
 /// Times Embree's own BVH builds for `cargo xtask build-bench`: one device (created once, so
 /// that its thread pool is up before the first timed build) and, per build, a new scene with
 /// one triangle geometry, of which only `rtcCommitScene` is timed (the BVH build; Embree
@@ -491,6 +519,7 @@ impl BuildTimer {
         let config = Config {
             quality,
             robust: false,
+            isa: None,
         };
         // SAFETY: as in `Scene::build`: handles checked for null, buffers written in bounds by
         // `fill_buffers`, the geometry released after being attached, the scene released
@@ -522,5 +551,82 @@ impl BuildTimer {
             sys::rtcReleaseScene(scene);
             result
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::Vec3A;
+
+    fn quad() -> Vec<Triangle> {
+        let p = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
+        vec![
+            Triangle::new(p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1.0)),
+            Triangle::new(p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)),
+        ]
+    }
+
+    #[test]
+    fn hits_misses_and_invalid_rays() {
+        let tris = quad();
+        let t = EmbreeTracer::new(&tris).unwrap();
+        let down = Vec3A::new(0.0, 0.0, -1.0);
+        let r = Ray::new(Vec3A::new(0.25, 0.25, 2.0), down, 0.0, f32::INFINITY);
+        let h = t.closest_hit_fast(&r);
+        assert_eq!(h.prim, 0);
+        assert!((h.t - 2.0).abs() < 1e-5);
+        assert!((h.u - 0.25).abs() < 1e-5 && (h.v - 0.25).abs() < 1e-5);
+        assert!(t.any_hit_fast(&r));
+        let r = Ray::new(Vec3A::new(0.75, 0.75, 2.0), down, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&r).prim, 1);
+        let miss = Ray::new(Vec3A::new(2.0, 2.0, 2.0), down, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&miss), Hit::MISS);
+        assert!(!t.any_hit_fast(&miss));
+        let short = Ray::new(Vec3A::new(0.25, 0.25, 2.0), down, 0.0, 1.0);
+        assert!(!t.any_hit_fast(&short));
+        let nan = Ray::new(Vec3A::new(f32::NAN, 0.0, 2.0), down, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&nan), Hit::MISS);
+        assert!(!t.any_hit_fast(&nan));
+        // A second tracer over the same slice shares the scene.
+        let t2 = EmbreeTracer::new(&tris).unwrap();
+        assert!(Arc::ptr_eq(&t.scene, &t2.scene));
+    }
+
+    #[test]
+    fn device_configuration_matches_the_backend() {
+        assert_eq!(matching_isa(Backend::Sse2), Some("sse2"));
+        assert_eq!(matching_isa(Backend::Avx2), Some("avx2"));
+        assert_eq!(matching_isa(Backend::Avx512), Some("avx512"));
+        assert_eq!(matching_isa(Backend::Portable), None);
+        assert_eq!(device_config(Some("avx2"), ""), "isa=avx2");
+        assert_eq!(
+            device_config(Some("sse2"), "verbose=1,"),
+            "isa=sse2,verbose=1"
+        );
+        assert_eq!(device_config(None, "verbose=2"), "verbose=2");
+        assert_eq!(device_config(None, ""), "");
+        // The user's isa comes last, so it is the one Embree runs and reports say.
+        let c = device_config(Some("avx2"), "isa=sse4.2");
+        assert_eq!(configured_isa(&c).as_deref(), Some("sse4.2"));
+        assert_eq!(configured_isa("verbose=1"), None);
+    }
+
+    #[test]
+    fn every_available_isa_gives_the_same_hits_on_a_quad() {
+        let tris = quad();
+        let down = Vec3A::new(0.0, 0.0, -1.0);
+        for b in Backend::ALL.into_iter().filter(|b| b.is_available()) {
+            let t = EmbreeTracer::with_backend(&tris, b).unwrap();
+            let r = Ray::new(Vec3A::new(0.75, 0.75, 2.0), down, 0.0, f32::INFINITY);
+            assert_eq!(t.closest_hit_fast(&r).prim, 1, "{b}");
+        }
+    }
+
+    #[test]
+    fn empty_scene_misses() {
+        let t = EmbreeTracer::new(&[]).unwrap();
+        let r = Ray::new(Vec3A::ZERO, Vec3A::X, 0.0, f32::INFINITY);
+        assert_eq!(t.closest_hit_fast(&r), Hit::MISS);
     }
 }

@@ -8,13 +8,18 @@ mod bvh_cmd;
 mod embree;
 mod eval;
 mod hardcases;
+#[cfg(feature = "obvhs")]
+mod obvhs;
 mod oracle_cmd;
 mod package_cmd;
+mod peers;
 mod scaling;
 mod scenes_cmd;
 mod study;
 #[cfg(test)]
 mod tidy;
+#[cfg(feature = "tinybvh")]
+mod tinybvh;
 mod trace_cmd;
 mod util;
 

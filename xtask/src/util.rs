@@ -86,6 +86,11 @@ pub fn git_commit() -> String {
 
 /// Builds the registry preset `name`.
 pub fn builder(name: &str) -> Result<Box<dyn sahara_builders::Builder>> {
+    // obvhs's PLOC tree, converted (feature `obvhs`; not in the builders' registry).
+    #[cfg(feature = "obvhs")]
+    if name == crate::obvhs::PLOC_NAME {
+        return Ok(Box::new(crate::obvhs::PlocBuilder));
+    }
     sahara_builders::registry::by_name(name).with_context(|| {
         format!(
             "unknown builder '{name}'; known: {}",

@@ -7,7 +7,9 @@
 //!   `(seed, pixel)` ([`ray_rng`]) so a set is bit-identical on any number of threads;
 //! * [`Tracer`]: closest-hit and any-hit queries, with and without work counters; one
 //!   implementation per BVH layout ([`Bvh2Tracer`] for the binary tree, [`BruteTracer`] for
-//!   checks), so new layouts plug into everything below;
+//!   checks, [`WideTracer`] for the 4- and 8-wide SIMD kernels with a chosen backend,
+//!   [`parse_backend`] for a `--backend` name checked against the CPU), so new layouts plug
+//!   into everything below;
 //! * batch tracing on rayon ([`trace_closest`], [`trace_any`], [`trace_set`] and their
 //!   `_counted` variants with per-ray [`WorkCounters`]), results in the order of the rays;
 //!   [`checksum`] and [`hit_count`] to compare tracers;
@@ -85,9 +87,11 @@ pub use rays::{
 pub use render::{
     colour_ramp, heat_map, shade, HeatMap, PixelWork, RgbImage, Shading, MISS_COLOUR,
 };
-pub use sahara_traverse::{Hit, WorkCounters};
+pub use sahara_traverse::{Backend, Hit, WorkCounters};
 pub use timing::{measure, mrays_per_s, Throughput, Timing};
-pub use tracer::{BruteTracer, Bvh2Tracer, Tracer, WideTracer};
+pub use tracer::{
+    parse_backend, require_backend, BackendError, BruteTracer, Bvh2Tracer, Tracer, WideTracer,
+};
 
 /// The README's examples, compiled and run as doctests.
 #[cfg(doctest)]

@@ -2,7 +2,7 @@
 
 use sahara_bvh::Bvh;
 use sahara_geom::{Ray, Triangle};
-use sahara_traverse::{scalar, Hit, NoStats, WorkCounters};
+use sahara_traverse::{scalar, Backend, Hit, NoStats, WorkCounters};
 
 /// Something that answers closest-hit and any-hit queries for single rays: one implementation
 /// per BVH layout (binary, 4-wide, 8-wide, …).
@@ -134,20 +134,118 @@ impl Tracer for BruteTracer<'_> {
     }
 }
 
+/// A `--backend` choice that cannot be honoured: an unknown name, or a backend this CPU lacks
+/// ([`parse_backend`], [`require_backend`], [`WideTracer::with_backend`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum BackendError {
+    /// Not one of `portable`, `sse2`, `avx2`, `avx512`.
+    #[error("unknown backend {0:?} (expected portable, sse2, avx2 or avx512)")]
+    Unknown(String),
+    /// The CPU (or the target architecture) cannot run the backend.
+    #[error(
+        "backend {wanted} is not available on this CPU (it needs {}); this CPU runs: {}",
+        requirement(*.wanted),
+        names(.available)
+    )]
+    Unavailable {
+        /// The backend asked for.
+        wanted: Backend,
+        /// The backends this CPU runs, slowest first.
+        available: Vec<Backend>,
+    },
+}
+
+/// What a backend needs of the CPU, for error messages.
+fn requirement(b: Backend) -> &'static str {
+    match b {
+        Backend::Portable => "nothing",
+        Backend::Sse2 => "x86-64",
+        Backend::Avx2 => "x86-64 with AVX2 and FMA",
+        Backend::Avx512 => "x86-64 with AVX2, FMA, AVX-512F and AVX-512VL",
+    }
+}
+
+fn names(v: &[Backend]) -> String {
+    v.iter().map(|b| b.name()).collect::<Vec<_>>().join(", ")
+}
+
+/// `backend` when `is_available` says the CPU runs it, else [`BackendError::Unavailable`]
+/// (with the list of backends `is_available` admits). Pass [`Backend::is_available`] for this
+/// CPU; tests pass other predicates to simulate other CPUs.
+pub fn require_backend(
+    backend: Backend,
+    is_available: impl Fn(Backend) -> bool,
+) -> Result<Backend, BackendError> {
+    if is_available(backend) {
+        Ok(backend)
+    } else {
+        Err(BackendError::Unavailable {
+            wanted: backend,
+            available: Backend::ALL
+                .into_iter()
+                .filter(|&b| is_available(b))
+                .collect(),
+        })
+    }
+}
+
+/// Parses a backend name (`portable`, `sse2`, `avx2`, `avx512`, ASCII case-insensitive) and
+/// checks it with [`require_backend`].
+///
+/// ```
+/// use sahara_trace::{parse_backend, Backend, BackendError};
+///
+/// assert_eq!(parse_backend("sse2", Backend::is_available), Ok(Backend::Sse2));
+/// // A CPU without AVX-512 (simulated):
+/// let no_avx512 = |b: Backend| b != Backend::Avx512;
+/// assert!(matches!(parse_backend("avx512", no_avx512), Err(BackendError::Unavailable { .. })));
+/// assert!(matches!(parse_backend("neon", no_avx512), Err(BackendError::Unknown(_))));
+/// ```
+pub fn parse_backend(
+    name: &str,
+    is_available: impl Fn(Backend) -> bool,
+) -> Result<Backend, BackendError> {
+    let b = Backend::ALL
+        .into_iter()
+        .find(|b| name.eq_ignore_ascii_case(b.name()))
+        .ok_or_else(|| BackendError::Unknown(name.to_string()))?;
+    require_backend(b, is_available)
+}
+
 /// A wide BVH (4- or 8-wide, collapsed from a binary [`Bvh`]) traced by the SIMD kernels of
-/// `sahara_traverse::wide`, with the CPU's best backend chosen at run time.
+/// `sahara_traverse::wide`: with the CPU's best backend chosen at run time ([`WideTracer::new`])
+/// or with a chosen one ([`WideTracer::with_backend`]). Every backend gives the same hits.
 #[derive(Clone, Debug)]
 pub struct WideTracer<const W: usize> {
     /// The collapsed tree (it owns a copy of the triangle data it needs).
     pub wide: sahara_traverse::WideBvh<W>,
+    backend: Backend,
 }
 
 impl<const W: usize> WideTracer<W> {
-    /// Collapses `bvh` (built over `tris`) into a `W`-wide tree.
+    /// Collapses `bvh` (built over `tris`) into a `W`-wide tree, traced with the best backend
+    /// of this CPU.
     pub fn new(bvh: &Bvh, tris: &[Triangle]) -> Self {
-        Self {
-            wide: sahara_traverse::WideBvh::<W>::from_bvh(bvh, tris),
-        }
+        let wide = sahara_traverse::WideBvh::<W>::from_bvh(bvh, tris);
+        let backend = wide.backend();
+        Self { wide, backend }
+    }
+
+    /// As [`WideTracer::new`], traced with `backend`; [`BackendError::Unavailable`] when this
+    /// CPU cannot run it (checked before the tree is collapsed, never a silent fallback).
+    pub fn with_backend(
+        bvh: &Bvh,
+        tris: &[Triangle],
+        backend: Backend,
+    ) -> Result<Self, BackendError> {
+        require_backend(backend, Backend::is_available)?;
+        let wide = sahara_traverse::WideBvh::<W>::from_bvh(bvh, tris);
+        Ok(Self { wide, backend })
+    }
+
+    /// The backend the queries run.
+    pub fn backend(&self) -> Backend {
+        self.backend
     }
 }
 
@@ -162,21 +260,21 @@ impl<const W: usize> Tracer for WideTracer<W> {
 
     #[inline]
     fn closest_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> Hit {
-        self.wide.closest_hit(ray, stats)
+        self.wide.closest_hit_with(self.backend, ray, stats)
     }
 
     #[inline]
     fn any_hit(&self, ray: &Ray, stats: &mut WorkCounters) -> bool {
-        self.wide.any_hit(ray, stats)
+        self.wide.any_hit_with(self.backend, ray, stats)
     }
 
     #[inline]
     fn closest_hit_fast(&self, ray: &Ray) -> Hit {
-        self.wide.closest_hit(ray, &mut NoStats)
+        self.wide.closest_hit_with(self.backend, ray, &mut NoStats)
     }
 
     #[inline]
     fn any_hit_fast(&self, ray: &Ray) -> bool {
-        self.wide.any_hit(ray, &mut NoStats)
+        self.wide.any_hit_with(self.backend, ray, &mut NoStats)
     }
 }

@@ -379,6 +379,83 @@ fn bvh2_tracer_equals_brute_force_ray_by_ray() {
 }
 
 #[test]
+fn every_available_backend_gives_the_reference_checksums() {
+    let tris = scene();
+    let bvh = median_split_bvh(&tris);
+    let reference = Bvh2Tracer::new(&bvh, &tris);
+    let mut tried = 0;
+    for backend in Backend::ALL.into_iter().filter(|b| b.is_available()) {
+        let t4 = WideTracer::<4>::with_backend(&bvh, &tris, backend).unwrap();
+        let t8 = WideTracer::<8>::with_backend(&bvh, &tris, backend).unwrap();
+        assert_eq!((t4.backend(), t8.backend()), (backend, backend));
+        for kind in RayKind::ALL {
+            let set = RaySet::generate(kind, &camera(), W, H, &reference, &tris, 5);
+            let want = trace_set(&reference, &set);
+            for t in [&t4 as &dyn Tracer, &t8] {
+                let got = trace_set(t, &set);
+                assert_eq!(
+                    got.checksum(),
+                    want.checksum(),
+                    "{} with {backend}, {kind}",
+                    t.name()
+                );
+                let counted = trace_set_counted(t, &set);
+                assert_eq!(counted.results.checksum(), want.checksum());
+            }
+        }
+        tried += 1;
+    }
+    // Portable and (on x86-64) SSE2 exist everywhere.
+    let expected = if cfg!(target_arch = "x86_64") { 2 } else { 1 };
+    assert!(tried >= expected, "{tried} backends");
+    // The default tracer runs the best backend.
+    assert_eq!(WideTracer::<8>::new(&bvh, &tris).backend(), Backend::best());
+}
+
+#[test]
+fn backends_a_cpu_lacks_are_typed_errors() {
+    // A CPU with SSE2 and AVX2 but no AVX-512 (simulated).
+    let avx2_only = |b: Backend| b != Backend::Avx512;
+    assert_eq!(parse_backend("avx2", avx2_only), Ok(Backend::Avx2));
+    assert_eq!(parse_backend("AVX2", avx2_only), Ok(Backend::Avx2));
+    assert_eq!(parse_backend("portable", avx2_only), Ok(Backend::Portable));
+    let e = parse_backend("avx512", avx2_only).unwrap_err();
+    assert_eq!(
+        e,
+        BackendError::Unavailable {
+            wanted: Backend::Avx512,
+            available: vec![Backend::Portable, Backend::Sse2, Backend::Avx2],
+        }
+    );
+    let msg = e.to_string();
+    assert!(msg.contains("avx512") && msg.contains("AVX-512F"), "{msg}");
+    assert!(msg.contains("portable, sse2, avx2"), "{msg}");
+    // A CPU with nothing but the portable kernels.
+    let portable_only = |b: Backend| b == Backend::Portable;
+    for name in ["sse2", "avx2", "avx512"] {
+        assert!(matches!(
+            parse_backend(name, portable_only),
+            Err(BackendError::Unavailable { .. })
+        ));
+    }
+    assert_eq!(
+        parse_backend("neon", avx2_only),
+        Err(BackendError::Unknown("neon".into()))
+    );
+    assert_eq!(require_backend(Backend::Sse2, avx2_only), Ok(Backend::Sse2));
+    // On this CPU: every backend it lacks is refused by the tracer too.
+    let tris = scene();
+    let bvh = median_split_bvh(&tris);
+    for b in Backend::ALL {
+        assert_eq!(
+            WideTracer::<8>::with_backend(&bvh, &tris, b).is_ok(),
+            b.is_available(),
+            "{b}"
+        );
+    }
+}
+
+#[test]
 fn checksums_and_counts() {
     let h = |t: f32, prim: u32| Hit {
         t,

@@ -47,9 +47,14 @@ pub struct Args {
     /// Ray types.
     #[arg(long, value_delimiter = ',', default_value = "primary,diffuse,ao")]
     pub rays: Vec<String>,
-    /// Layouts to trace.
+    /// Layouts to trace (and foreign engines, with their features: embree, tinybvh,
+    /// tinybvh-hq, obvhs).
     #[arg(long, value_delimiter = ',')]
     pub layouts: Vec<String>,
+    /// SIMD kernels of bvh4/bvh8: portable, sse2, avx2 or avx512 (default: the best this CPU
+    /// runs; a backend the CPU lacks is an error). Embree gets the matching `isa=`.
+    #[arg(long, value_parser = trace_cmd::parse_backend_arg)]
+    pub backend: Option<sahara_trace::Backend>,
     /// Output folder (default: target/eval/<date>).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -90,6 +95,8 @@ pub struct Settings {
     pub builders: Vec<String>,
     pub rays: Vec<String>,
     pub layouts: Vec<String>,
+    /// The backend of the bvh4/bvh8 kernels (`--backend`), also matched by Embree's ISA.
+    pub backend: String,
     pub width: u32,
     pub height: u32,
     pub passes: usize,
@@ -225,7 +232,7 @@ const QUICK_BUILDERS: &[&str] = &["sweep", "sbvh", "binned", "tsah-topk", "hybri
 
 /// The layouts of the default and quick matrices: the binary kernel (the paper's comparison)
 /// and the 8-wide one (the headline: what users run); `--full` traces every layout.
-const DEFAULT_LAYOUTS: &[&str] = &["bvh2", "bvh8", "embree"];
+const DEFAULT_LAYOUTS: &[&str] = &["bvh2", "bvh8", "embree", "tinybvh", "tinybvh-hq", "obvhs"];
 
 fn default_builders(quick: bool, full: bool) -> Vec<String> {
     if full {
@@ -266,6 +273,11 @@ fn impractical(builder: &str, triangles: usize, named: bool) -> bool {
 }
 
 impl Args {
+    /// The backend of the run: `--backend`, else the best of this CPU.
+    fn backend(&self) -> sahara_trace::Backend {
+        self.backend.unwrap_or_else(sahara_trace::Backend::best)
+    }
+
     fn settings(&self) -> Settings {
         let (q, full) = (self.quick, self.full);
         let mut builders = if self.builders.is_empty() {
@@ -299,6 +311,7 @@ impl Args {
             } else {
                 self.layouts.clone()
             },
+            backend: self.backend().name().to_string(),
             width: self.width.unwrap_or(pick(q, full, 256, 320, 1024)),
             height: self.height.unwrap_or(pick(q, full, 192, 240, 768)),
             passes: self.passes.unwrap_or(pick(q, full, 11, 15, 11)),
@@ -485,13 +498,22 @@ pub fn run(a: Args) -> Result<()> {
             .map(|layout| {
                 trees
                     .iter()
-                    .map(|(_, bvh)| trace_cmd::make_tracer(layout, bvh, &scene.triangles))
+                    .map(|(_, bvh)| {
+                        trace_cmd::make_tracer_with(layout, bvh, &scene.triangles, a.backend())
+                    })
                     .collect::<Result<_>>()
             })
             .collect::<Result<_>>()?;
-        // Embree ignores the builders' trees (every tracer of that layout traces the same
-        // Embree scene): it is traced once, and its figures fill every builder's row.
-        let timed_trees = |layout: &str| if layout == "embree" { 1 } else { trees.len() };
+        // Foreign engines (Embree, tinybvh, obvhs) ignore the builders' trees (every tracer of
+        // such a layout traces the same tree of the engine's own): each is traced once, and
+        // its figures fill every builder's row.
+        let timed_trees = |layout: &str| {
+            if trace_cmd::is_foreign(layout) {
+                1
+            } else {
+                trees.len()
+            }
+        };
         // Timings per ray set, layout and tree. The passes of every layout and tree are
         // interleaved (one warm-up round, then `passes` timed rounds), so that the drift of a
         // shared machine hits every engine alike and their ratios come from the same rounds.
@@ -546,6 +568,7 @@ pub fn run(a: Args) -> Result<()> {
                         scene.triangles.len(),
                         b,
                         layout,
+                        &trace_cmd::engine_backend(layout, a.backend()),
                         set,
                         a.threads,
                         timing,

@@ -56,11 +56,12 @@ fn title(d: &mut Doc, c: &Ctx) {
     let (r, s) = (c.r, &c.r.meta.settings);
     d.h(1, "sahara evaluation");
     d.p(format!(
-        "Run {} at commit `{}` on **{}** ({} threads, SIMD: {}), {:.0} s in all: {} scenes, {} builders, {}×{} pixels, {} interleaved rounds{}.{}",
+        "Run {} at commit `{}` on **{}** ({} threads, backend: {}, the best of this CPU: {}), {:.0} s in all: {} scenes, {} builders, {}×{} pixels, {} interleaved rounds{}.{}",
         r.meta.date,
         r.meta.commit,
         r.meta.cpu,
         s.threads,
+        s.backend,
         r.meta.simd,
         r.meta.seconds,
         r.scenes.len(),
@@ -982,13 +983,13 @@ fn inline_md(t: &str) -> String {
 /// way round; a missing value is an empty field.
 fn csv(r: &Results) -> String {
     let mut s = String::from(
-        "kind,scene,triangles,builder,layout,rays,ray_count,threads,build_ms_median,build_ms_min,build_ms_max,sah,epo,nodes,leaves,references,max_leaf,depth,mrays_median,mrays_min,mrays_max,inner_per_ray,leaves_per_ray,triangles_per_ray,work_cost,lcv,hits,checksum,speed_vs_sweep,work_vs_sweep,speed_vs_sbvh,work_vs_sbvh\n",
+        "kind,scene,triangles,builder,layout,rays,ray_count,threads,build_ms_median,build_ms_min,build_ms_max,sah,epo,nodes,leaves,references,max_leaf,depth,mrays_median,mrays_min,mrays_max,inner_per_ray,leaves_per_ray,triangles_per_ray,work_cost,lcv,hits,checksum,speed_vs_sweep,work_vs_sweep,speed_vs_sbvh,work_vs_sbvh,backend\n",
     );
     let o = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
     for b in &r.builds {
         let _ = writeln!(
             s,
-            "build,{},{},{},,,,{},{},{},{},{},{},{},{},{},{},{},,,,,,,,,,,,,,",
+            "build,{},{},{},,,,{},{},{},{},{},{},{},{},{},{},{},,,,,,,,,,,,,,,",
             b.scene,
             b.triangles,
             b.builder,
@@ -1009,7 +1010,7 @@ fn csv(r: &Results) -> String {
         let x = &t.report;
         let _ = writeln!(
             s,
-            "trace,{},{},{},{},{},{},{},,,,,,,,,,,{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "trace,{},{},{},{},{},{},{},,,,,,,,,,,{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             x.scene,
             x.triangles,
             x.builder,
@@ -1030,7 +1031,8 @@ fn csv(r: &Results) -> String {
             o(t.speed_vs_sweep),
             o(t.work_vs_sweep),
             o(t.speed_vs_sbvh),
-            o(t.work_vs_sbvh)
+            o(t.work_vs_sbvh),
+            x.backend
         );
     }
     s
@@ -1078,6 +1080,7 @@ mod tests {
             builders: BUILDERS.map(String::from).to_vec(),
             rays: KINDS.map(String::from).to_vec(),
             layouts: LAYOUTS.map(String::from).to_vec(),
+            backend: "sse2".into(),
             width: 32,
             height: 24,
             passes: 3,
@@ -1151,6 +1154,7 @@ mod tests {
                             triangles: sc.triangles,
                             builder: b.to_string(),
                             layout: layout.to_string(),
+                            backend: if *layout == "bvh2" { "scalar" } else { "sse2" }.into(),
                             ray_kind: kind.to_string(),
                             rays: 768,
                             threads: 2,
