@@ -46,7 +46,7 @@ use crate::split::{
 use crate::topdown::{self, Step, TopDown};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use rayon::prelude::*;
-use sahara_geom::Aabb;
+use sahara_geom::{Aabb, Vec3A};
 use sahara_metrics::CostModel;
 
 /// Configuration of the binned SAH builder.
@@ -475,41 +475,18 @@ impl<'a> BinnedRule<'a> {
     }
 
     /// Moves the references of bins `< plane` to the front (the same swaps whatever the
-    /// backend); returns how many there are and the centroid bounds of both sides.
+    /// backend and the number of threads); returns how many there are and the centroid
+    /// bounds of both sides.
     fn partition(&self, refs: &mut [PrimRef], p: &Plane) -> (usize, Aabb, Aabb) {
-        // `map.bin(x) < plane` without the saturating conversion: for a whole `plane` in
-        // `1..bins`, `min(trunc(v), bins - 1) < plane` exactly when `!(v >= plane)`
-        // (NaN, negative and small `v` go left, as their bin is 0).
-        let (axis, min, scale, plane) = (p.axis, p.map.min, p.map.scale, p.plane as f32);
-        let mut lc = Aabb::EMPTY;
-        let mut rc = Aabb::EMPTY;
-        let mut goes_left = |r: &PrimRef| {
-            let c = r.centroid();
-            // Negated on purpose: NaN goes left, as `BinMap::bin` puts it in bin 0.
-            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            let left = !((c[axis] - min) * scale >= plane);
-            if left {
-                lc.grow(c);
-            } else {
-                rc.grow(c);
+        // The parallel partition does more work (it records the misplaced positions): worth
+        // it only at the few top nodes, where the other workers have nothing else to do yet.
+        // Both give the same result, so the choice may depend on the thread count.
+        if refs.len() >= PAR_PARTITION_THRESHOLD && rayon::current_num_threads() > 1 {
+            if let Some(r) = partition_par(refs, p) {
+                return r;
             }
-            left
-        };
-        let (mut i, mut j) = (0usize, refs.len());
-        loop {
-            while i < j && goes_left(&refs[i]) {
-                i += 1;
-            }
-            while i < j && !goes_left(&refs[j - 1]) {
-                j -= 1;
-            }
-            if i >= j {
-                return (i, lc, rc);
-            }
-            refs.swap(i, j - 1);
-            i += 1;
-            j -= 1;
         }
+        partition_serial(refs, p)
     }
 
     /// Object median split on the largest axis of the centroid bounds, by (centroid, index).
@@ -525,6 +502,144 @@ impl<'a> BinnedRule<'a> {
         refs.len() / 2
     }
 }
+
+/// Whether a reference goes left of plane `p` (`map.bin(x) < plane`, exactly): for a whole
+/// `plane` in `1..bins`, `min(trunc(v), bins - 1) < plane` exactly when `!(v >= plane)` (NaN,
+/// negative and small `v` go left, as their bin is 0).
+#[inline(always)]
+fn goes_left(p: &Plane, c: Vec3A) -> bool {
+    let v = (c[p.axis] - p.map.min) * p.map.scale;
+    // Negated on purpose: NaN goes left, as `BinMap::bin` puts it in bin 0.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    let left = !(v >= p.plane as f32);
+    left
+}
+
+/// The serial in-place partition (Hoare's two-pointer scheme): the `k`-th reference of the
+/// front `0..mid` that goes right swaps with the `k`-th reference of the back `mid..`,
+/// counted from the end, that goes left (`mid` being the number going left).
+fn partition_serial(refs: &mut [PrimRef], p: &Plane) -> (usize, Aabb, Aabb) {
+    let mut lc = Aabb::EMPTY;
+    let mut rc = Aabb::EMPTY;
+    let mut classify = |r: &PrimRef| {
+        let c = r.centroid();
+        let left = goes_left(p, c);
+        if left {
+            lc.grow(c);
+        } else {
+            rc.grow(c);
+        }
+        left
+    };
+    let (mut i, mut j) = (0usize, refs.len());
+    loop {
+        while i < j && classify(&refs[i]) {
+            i += 1;
+        }
+        while i < j && !classify(&refs[j - 1]) {
+            j -= 1;
+        }
+        if i >= j {
+            return (i, lc, rc);
+        }
+        refs.swap(i, j - 1);
+        i += 1;
+        j -= 1;
+    }
+}
+
+/// [`partition_serial`] in parallel, with the same result: the misplaced references of the
+/// front (going right) and of the back (going left) are found chunk by chunk, then swapped
+/// pair by pair in the order the serial scheme pairs them. The centroid bounds are unions
+/// (exact in any order but for the sign of a zero, which no bin or plane depends on). `None`
+/// when the plane's count of the left side is not the partition's (never, by construction;
+/// then the serial partition runs).
+fn partition_par(refs: &mut [PrimRef], p: &Plane) -> Option<(usize, Aabb, Aabb)> {
+    let mid = p.n_left;
+    if mid == 0 || mid >= refs.len() {
+        return None;
+    }
+    // Per chunk: the positions (in the whole slice) of the misplaced references, and the
+    // centroid bounds of both sides.
+    let scan = |front: bool, base: usize, chunk: &[PrimRef]| {
+        let mut lc = Aabb::EMPTY;
+        let mut rc = Aabb::EMPTY;
+        let mut wrong = Vec::new();
+        for (i, r) in chunk.iter().enumerate() {
+            let c = r.centroid();
+            let left = goes_left(p, c);
+            if left {
+                lc.grow(c);
+            } else {
+                rc.grow(c);
+            }
+            if left != front {
+                wrong.push((base + i) as u32);
+            }
+        }
+        (wrong, lc, rc)
+    };
+    let (front, back) = refs.split_at(mid);
+    let (f, b) = rayon::join(
+        || {
+            front
+                .par_chunks(PAR_CHUNK)
+                .enumerate()
+                .map(|(c, chunk)| scan(true, c * PAR_CHUNK, chunk))
+                .collect::<Vec<_>>()
+        },
+        || {
+            back.par_chunks(PAR_CHUNK)
+                .enumerate()
+                .map(|(c, chunk)| scan(false, mid + c * PAR_CHUNK, chunk))
+                .collect::<Vec<_>>()
+        },
+    );
+    let mut lc = Aabb::EMPTY;
+    let mut rc = Aabb::EMPTY;
+    for (_, l, r) in f.iter().chain(&b) {
+        lc.grow_aabb(l);
+        rc.grow_aabb(r);
+    }
+    let wrong_front: Vec<u32> = f.into_iter().flat_map(|(w, _, _)| w).collect();
+    let mut wrong_back: Vec<u32> = b.into_iter().flat_map(|(w, _, _)| w).collect();
+    if wrong_front.len() != wrong_back.len() {
+        return None;
+    }
+    // The serial scheme meets the back's misplaced references from the end.
+    wrong_back.reverse();
+    /// The slice's base pointer, shared by the workers that swap disjoint pairs.
+    #[derive(Clone, Copy)]
+    struct Base(*mut PrimRef);
+    // SAFETY: only used to swap pairs of distinct positions, each position in one pair.
+    unsafe impl Send for Base {}
+    // SAFETY: as above.
+    unsafe impl Sync for Base {}
+    impl Base {
+        /// The pointer (a method, so that closures capture the whole `Base`).
+        fn ptr(self) -> *mut PrimRef {
+            self.0
+        }
+    }
+    let base = Base(refs.as_mut_ptr());
+    wrong_front
+        .par_chunks(PAR_CHUNK)
+        .zip(wrong_back.par_chunks(PAR_CHUNK))
+        .for_each(|(a, b)| {
+            let p = base.ptr();
+            for (&i, &j) in a.iter().zip(b) {
+                // SAFETY: `i < mid <= j < refs.len()`, and every position occurs in one pair
+                // only (the lists hold distinct positions of the two halves), so no two
+                // workers touch the same reference.
+                unsafe { std::ptr::swap(p.add(i as usize), p.add(j as usize)) };
+            }
+        });
+    Some((mid, lc, rc))
+}
+
+/// Nodes of at least this many references are partitioned in parallel (with more than one
+/// thread).
+const PAR_PARTITION_THRESHOLD: usize = 4 * PAR_NODE_THRESHOLD;
 
 /// Nodes of at most this many references (and bin counts up to it) may take the sorted
 /// small-node path (bin and position share one `u32` key).
@@ -622,6 +737,43 @@ mod tests {
     use super::*;
     use sahara_geom::rng::Pcg32;
     use sahara_geom::{Triangle, Vec3A};
+
+    #[test]
+    fn parallel_partition_equals_the_serial_one() {
+        let mut rng = Pcg32::new(5, 6);
+        let n = 5 * PAR_CHUNK + 123;
+        let boxes: Vec<Aabb> = (0..n)
+            .map(|_| {
+                // Coarse positions: many centroids on the plane's bin boundary.
+                let o = Vec3A::new(rng.below(40) as f32, rng.below(7) as f32, 0.0);
+                Aabb::new(o, o + Vec3A::splat(0.5 * rng.below(3) as f32))
+            })
+            .collect();
+        let refs: Vec<PrimRef> = boxes
+            .iter()
+            .enumerate()
+            .map(|(i, b)| PrimRef::new(b, i as u32))
+            .collect();
+        let cb = bounds_of(&refs).centroids;
+        for (axis, plane) in [(0, 1), (0, 5), (0, 16), (0, 31), (1, 3), (1, 30)] {
+            let map = BinMap::new(cb.min[axis], cb.max[axis], 32).unwrap();
+            let mut p = Plane {
+                axis,
+                plane,
+                map,
+                n_left: 0,
+                left: Aabb::EMPTY,
+                right: Aabb::EMPTY,
+            };
+            p.n_left = refs.iter().filter(|r| goes_left(&p, r.centroid())).count();
+            let mut a = refs.clone();
+            let mut b = refs.clone();
+            let sa = partition_serial(&mut a, &p);
+            let sb = partition_par(&mut b, &p).expect("the plane's count is right");
+            assert_eq!(sa, sb, "axis {axis} plane {plane}");
+            assert!(a.iter().zip(&b).all(|(x, y)| x.id() == y.id()));
+        }
+    }
 
     #[test]
     fn small_node_path_equals_full_binning() {

@@ -11,7 +11,7 @@
 use sahara_geom::{Aabb, Vec3A};
 use sahara_metrics::CostModel;
 
-use super::{imbalance, ranks_before, sort_by_key, Marks, Suffix};
+use super::{imbalance, ranks_before, sort_by_key, Marks, Suffix, PAR_AXES_THRESHOLD};
 
 /// A candidate split of a node whose primitives are sorted by centroid along `axis`: the first
 /// `pos` primitives of that order go left, the others right.
@@ -181,6 +181,32 @@ pub fn best_split(
     cost: &CostModel,
 ) -> (Aabb, SplitCandidate) {
     let n = orders[0].len();
+    if n >= PAR_AXES_THRESHOLD && rayon::current_num_threads() > 1 {
+        // The three axes at once, each with its own suffix buffer. The candidates are totally
+        // ordered (`better_than`), so the best of the axes' bests is the sequential best; the
+        // node's bounds are those of the last axis's sweep, as sequentially.
+        let axis_best = |axis: usize, areas: &mut [f32]| {
+            let mut best = SplitCandidate::fallback(n);
+            let node = sweep_axis(bounds, orders[axis], axis, areas, cost, |c| {
+                if c.better_than(&best, n) {
+                    best = c;
+                }
+            });
+            (node, best)
+        };
+        let (mut a1, mut a2) = (vec![0.0f32; n], vec![0.0f32; n]);
+        let ((_, b0), ((_, b1), (node, b2))) = rayon::join(
+            || axis_best(0, areas),
+            || rayon::join(|| axis_best(1, &mut a1), || axis_best(2, &mut a2)),
+        );
+        let mut best = SplitCandidate::fallback(n);
+        for b in [b0, b1, b2] {
+            if b.better_than(&best, n) {
+                best = b;
+            }
+        }
+        return (node, best);
+    }
     let mut best = SplitCandidate::fallback(n);
     let mut node = Aabb::EMPTY;
     for (axis, order) in orders.iter().enumerate() {
@@ -247,10 +273,8 @@ pub fn partition_in_place(
     for &id in orders[axis][..pos].iter() {
         marks.set(id, true);
     }
-    for (b, order) in orders.iter_mut().enumerate() {
-        if b == axis {
-            continue;
-        }
+    // The marked ids to the front, the others (through `tmp`) behind them, in order.
+    let part = |order: &mut [u32], tmp: &mut [u32]| {
         let (mut l, mut r) = (0, 0);
         for j in 0..order.len() {
             let id = order[j];
@@ -264,6 +288,20 @@ pub fn partition_in_place(
         }
         debug_assert_eq!(l, pos);
         order[pos..].copy_from_slice(&tmp[..r]);
+    };
+    let [o0, o1, o2] = orders;
+    let (a, b): (&mut [u32], &mut [u32]) = match axis {
+        0 => (&mut **o1, &mut **o2),
+        1 => (&mut **o0, &mut **o2),
+        _ => (&mut **o0, &mut **o1),
+    };
+    if a.len() >= PAR_AXES_THRESHOLD && rayon::current_num_threads() > 1 {
+        // Both orders at once (the marks are only read), the second through its own buffer.
+        let mut tmp2 = vec![0u32; b.len() - pos];
+        rayon::join(|| part(a, tmp), || part(b, &mut tmp2));
+    } else {
+        part(a, tmp);
+        part(b, tmp);
     }
     for &id in orders[axis][..pos].iter() {
         marks.set(id, false);

@@ -4,7 +4,7 @@
 
 use super::memory::HugeSlice;
 use super::{
-    encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
+    decode_leaf, encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
     MAX_LEAF_PACKETS, NO_ROOT,
 };
 use sahara_bvh::Bvh;
@@ -91,7 +91,11 @@ struct Collapser<'a, const W: usize> {
     /// Wide nodes allocated but not filled yet: `(binary node, wide node)`.
     work: Vec<(usize, usize)>,
     /// What every binary node becomes.
-    plan: Plan,
+    plan: &'a Plan,
+    /// Reused buffers of [`Collapser::subtree_prims`] (the references of a leaf and the
+    /// binary nodes still to visit), so that no leaf allocates.
+    prims: Vec<u32>,
+    todo: Vec<usize>,
 }
 
 /// SAH cost (per unit of the node's area) of a wide leaf over `refs` references: packets of
@@ -141,8 +145,11 @@ struct Plan {
 }
 
 impl Plan {
-    /// The plan for `bvh`, whose subtree `n` holds `refs[n]` references.
-    fn new(bvh: &Bvh, refs: &[u64], width: usize) -> Self {
+    /// The plan for `bvh`, whose subtree `n` holds `refs[n]` references. `sizes`, when the
+    /// layout is depth first with every subtree contiguous (subtree `n` is the node range
+    /// `n..n + sizes[n]`), lets large subtrees be planned in parallel; the plan is the same
+    /// bit for bit (every node's row depends on its children's rows only).
+    fn new(bvh: &Bvh, refs: &[u64], width: usize, sizes: Option<&[u32]>, par: Par) -> Self {
         let n = bvh.nodes.len();
         // Areas relative to the root's, so that `f32` costs (half the memory of `f64`; the plan
         // has `width` of them per binary node) neither overflow nor lose precision.
@@ -155,56 +162,18 @@ impl Plan {
         let mut cost = vec![0.0f32; n * width];
         let mut choice = vec![0u8; n * width];
         let mut split = vec![0u8; n];
-        let mut dist = vec![0.0f32; width + 1];
-        let mut dist_k = vec![0u8; width + 1];
-        for i in (0..n).rev() {
-            let node = &bvh.nodes[i];
-            let area = (half_area(&node.bounds()) * scale) as f32;
-            let row = i * width;
-            if node.is_leaf() {
-                let c = area * leaf_cost(refs[i]);
-                cost[row..row + width].fill(c);
-                choice[row] = AS_LEAF;
-                continue;
+        let rows = PlanRows {
+            bvh,
+            refs,
+            width,
+            scale,
+            par_nodes: par.plan_nodes,
+        };
+        match sizes {
+            Some(sizes) if n > par.plan_nodes => {
+                rows.subtree(sizes, 0, &mut cost, &mut choice, &mut split);
             }
-            let (l, r) = (i + 1, node.index as usize);
-            for (j, (d, dk)) in dist.iter_mut().zip(dist_k.iter_mut()).enumerate().skip(2) {
-                let mut best = f32::INFINITY;
-                let mut best_k = 1;
-                for k in 1..j {
-                    let c = cost[l * width + k - 1] + cost[r * width + j - k - 1];
-                    if c < best {
-                        best = c;
-                        best_k = k;
-                    }
-                }
-                *d = best;
-                *dk = best_k as u8;
-            }
-            let inner = area * C_NODE + dist[width];
-            let leaf = if refs[i] <= LEAF_MAX as u64 {
-                area * leaf_cost(refs[i])
-            } else {
-                f32::INFINITY
-            };
-            split[i] = dist_k[width];
-            if leaf <= inner {
-                cost[row] = leaf;
-                choice[row] = AS_LEAF;
-            } else {
-                cost[row] = inner;
-                choice[row] = AS_NODE;
-            }
-            for j in 2..=width {
-                // Ties distribute (more slots used, never a worse cost).
-                if dist[j] <= cost[row + j - 2] {
-                    cost[row + j - 1] = dist[j];
-                    choice[row + j - 1] = dist_k[j];
-                } else {
-                    cost[row + j - 1] = cost[row + j - 2];
-                    choice[row + j - 1] = 0;
-                }
-            }
+            _ => rows.range(0, n, &mut cost, &mut choice, &mut split),
         }
         Self {
             width,
@@ -236,6 +205,150 @@ impl Plan {
     }
 }
 
+/// Where the collapse runs in parallel (it changes the speed, never a bit of the result).
+#[derive(Clone, Copy)]
+struct Par {
+    /// Subtrees of more binary nodes than this are planned with both children at once.
+    plan_nodes: usize,
+    /// Subtrees of at least this many references collapse their children's subtrees as
+    /// separate fragments at once.
+    refs: u64,
+}
+
+impl Par {
+    const DEFAULT: Par = Par {
+        plan_nodes: 1 << 14,
+        refs: 1 << 14,
+    };
+}
+
+/// The dynamic programme of [`Plan`], row by row: a row holds, for one binary node, its `width`
+/// costs and choices (`cost` and `choice` slices start at the row of some node `base`).
+struct PlanRows<'a> {
+    bvh: &'a Bvh,
+    refs: &'a [u64],
+    width: usize,
+    scale: f64,
+    par_nodes: usize,
+}
+
+impl PlanRows<'_> {
+    /// Rows of the nodes `a..b` (slices starting at node `a`), last node first; the children
+    /// of every node of the range are in the range after it.
+    fn range(&self, a: usize, b: usize, cost: &mut [f32], choice: &mut [u8], split: &mut [u8]) {
+        let w = self.width;
+        for i in (a..b).rev() {
+            let node = &self.bvh.nodes[i];
+            let row = (i - a) * w;
+            let (head, tail) = cost.split_at_mut(row + w);
+            let kids = (!node.is_leaf()).then(|| {
+                let (l, r) = (i + 1, node.index as usize);
+                let l = &tail[(l - i - 1) * w..][..w];
+                let r = &tail[(r - i - 1) * w..][..w];
+                (l, r)
+            });
+            split[i - a] = self.row(i, kids, &mut head[row..], &mut choice[row..row + w]);
+        }
+    }
+
+    /// Rows of the subtree of `i`, the node range `i..i + sizes[i]` (slices starting at node
+    /// `i`), both children in parallel when the subtree is large.
+    fn subtree(
+        &self,
+        sizes: &[u32],
+        i: usize,
+        cost: &mut [f32],
+        choice: &mut [u8],
+        split: &mut [u8],
+    ) {
+        let size = sizes[i] as usize;
+        let node = &self.bvh.nodes[i];
+        if size <= self.par_nodes || node.is_leaf() {
+            self.range(i, i + size, cost, choice, split);
+            return;
+        }
+        let w = self.width;
+        // Layout: row `i`, then the left subtree `i + 1..r`, then the right one `r..`.
+        let nl = sizes[i + 1] as usize;
+        let (own_cost, kids_cost) = cost.split_at_mut(w);
+        let (l_cost, r_cost) = kids_cost.split_at_mut(nl * w);
+        let (own_choice, kids_choice) = choice.split_at_mut(w);
+        let (l_choice, r_choice) = kids_choice.split_at_mut(nl * w);
+        let (own_split, kids_split) = split.split_at_mut(1);
+        let (l_split, r_split) = kids_split.split_at_mut(nl);
+        rayon::join(
+            || self.subtree(sizes, i + 1, l_cost, l_choice, l_split),
+            || self.subtree(sizes, i + 1 + nl, r_cost, r_choice, r_split),
+        );
+        own_split[0] = self.row(i, Some((&l_cost[..w], &r_cost[..w])), own_cost, own_choice);
+    }
+
+    /// Fills the row of node `i` (`cost` and `choice` start at it) from its children's rows
+    /// (`None` for a leaf); returns the slots given to the left child in `distribute(i, W)`.
+    fn row(
+        &self,
+        i: usize,
+        kids: Option<(&[f32], &[f32])>,
+        cost: &mut [f32],
+        choice: &mut [u8],
+    ) -> u8 {
+        let width = self.width;
+        let node = &self.bvh.nodes[i];
+        let refs = self.refs[i];
+        let area = (half_area(&node.bounds()) * self.scale) as f32;
+        let Some((l, r)) = kids else {
+            let c = area * leaf_cost(refs);
+            cost[..width].fill(c);
+            choice[0] = AS_LEAF;
+            return 0;
+        };
+        let mut dist = [0.0f32; 9];
+        let mut dist_k = [0u8; 9];
+        for (j, (d, dk)) in dist[..=width]
+            .iter_mut()
+            .zip(dist_k[..=width].iter_mut())
+            .enumerate()
+            .skip(2)
+        {
+            let mut best = f32::INFINITY;
+            let mut best_k = 1;
+            for k in 1..j {
+                let c = l[k - 1] + r[j - k - 1];
+                if c < best {
+                    best = c;
+                    best_k = k;
+                }
+            }
+            *d = best;
+            *dk = best_k as u8;
+        }
+        let inner = area * C_NODE + dist[width];
+        let leaf = if refs <= LEAF_MAX as u64 {
+            area * leaf_cost(refs)
+        } else {
+            f32::INFINITY
+        };
+        if leaf <= inner {
+            cost[0] = leaf;
+            choice[0] = AS_LEAF;
+        } else {
+            cost[0] = inner;
+            choice[0] = AS_NODE;
+        }
+        for j in 2..=width {
+            // Ties distribute (more slots used, never a worse cost).
+            if dist[j] <= cost[j - 2] {
+                cost[j - 1] = dist[j];
+                choice[j - 1] = dist_k[j];
+            } else {
+                cost[j - 1] = cost[j - 2];
+                choice[j - 1] = 0;
+            }
+        }
+        dist_k[width]
+    }
+}
+
 /// Half the surface area of a box, in `f64` (no overflow for huge finite boxes).
 fn half_area(b: &Aabb) -> f64 {
     if b.is_empty() {
@@ -250,6 +363,11 @@ fn half_area(b: &Aabb) -> f64 {
 }
 
 pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: Source<'_>) -> WideBvh<W> {
+    collapse_with(bvh, tris, Par::DEFAULT)
+}
+
+/// [`collapse`] with the parallel thresholds `par`.
+fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideBvh<W> {
     assert!(
         W == 4 || W == 8,
         "wide BVHs have 4 or 8 children per node, not {W}"
@@ -266,41 +384,170 @@ pub(crate) fn collapse<const W: usize>(bvh: &Bvh, tris: Source<'_>) -> WideBvh<W
         };
     }
     let n = bvh.nodes.len();
+    // References and binary nodes of every subtree, and whether every subtree is a contiguous
+    // range of the layout (then large subtrees are planned in parallel).
     let mut refs = vec![0u64; n];
+    let mut sizes = vec![0u32; n];
+    let mut contiguous = true;
     for i in (0..n).rev() {
         let node = &bvh.nodes[i];
-        refs[i] = if node.is_leaf() {
-            node.count as u64
+        if node.is_leaf() {
+            refs[i] = node.count as u64;
+            sizes[i] = 1;
         } else {
-            refs[i + 1].saturating_add(refs[node.index as usize])
-        };
+            let (l, r) = (i + 1, node.index as usize);
+            refs[i] = refs[l].saturating_add(refs[r]);
+            sizes[i] = sizes[l].saturating_add(sizes[r]).saturating_add(1);
+            contiguous &= r == i + 1 + sizes[l] as usize;
+        }
     }
-    let mut c = Collapser::<W> {
-        bvh,
-        tris,
-        nodes: Vec::new(),
-        packets: Vec::new(),
-        work: Vec::new(),
-        plan: Plan::new(bvh, &refs, W),
+    contiguous &= sizes[0] as usize == n;
+    let plan = Plan::new(bvh, &refs, W, contiguous.then_some(&sizes[..]), par);
+    drop(sizes);
+    let (nodes, packets, root) = if plan.is_leaf(0) {
+        let mut c = Collapser::<W>::new(bvh, tris, &plan, Vec::new());
+        let root = c.child(0);
+        debug_assert!(c.work.is_empty());
+        (c.nodes, c.packets, root)
+    } else {
+        let frag = fragment::<W>(bvh, tris, &plan, &refs, par.refs, 0);
+        let (nodes, packets) = flatten(frag);
+        (nodes, packets, 0)
     };
-    let root = c.child(0);
-    while let Some((bin, wide)) = c.work.pop() {
-        c.fill(bin, wide);
-    }
     assert!(
-        c.nodes.len() < LEAF_BIT as usize,
+        nodes.len() < LEAF_BIT as usize,
         "too many wide nodes ({})",
-        c.nodes.len()
+        nodes.len()
     );
-    let max_stack = stack_bound(&c.nodes, root);
+    let max_stack = stack_bound(&nodes, root);
     WideBvh {
-        nodes: c.nodes.into(),
-        packets: c.packets.into(),
+        nodes: nodes.into(),
+        packets: packets.into(),
         root,
         root_bounds: bvh.nodes[0].bounds(),
         max_stack,
         backend,
     }
+}
+
+/// The wide subtree of one binary node that becomes a wide inner node, with indices local to
+/// the fragment: node `0` is the subtree's own wide node, node `j >= 1` the `j`-th node of the
+/// block that the depth-first collapse lays out for its descendants; leaves count packets
+/// from the fragment's first. `subs` are the fragments of large child subtrees built
+/// separately (in parallel), in the order the sequential collapse lays them out after
+/// `nodes`, each with the local index of the slot its own node fills.
+struct Frag<const W: usize> {
+    nodes: Vec<WideNode<W>>,
+    packets: Vec<TriPacket>,
+    subs: Vec<(usize, Frag<W>)>,
+}
+
+/// The fragment of binary node `bin` (planned as a wide inner node). The sequential collapse
+/// fills a wide node, allocating its inner children at the end of the node array (and the
+/// packets of its leaf children), then fills those children from the last to the first, each
+/// with its whole subtree: so every wide node's descendants are one contiguous block, laid out
+/// as the node's children, then the blocks of its last child to its first. Subtrees of at
+/// least `par_refs` references build the blocks of their inner children as
+/// separate fragments in parallel; [`flatten`] joins them into exactly the sequential layout.
+fn fragment<const W: usize>(
+    bvh: &Bvh,
+    tris: Source<'_>,
+    plan: &Plan,
+    refs: &[u64],
+    par_refs: u64,
+    bin: usize,
+) -> Frag<W> {
+    let mut c = Collapser::<W>::new(bvh, tris, plan, vec![WideNode::EMPTY]);
+    c.fill(bin, 0);
+    if refs[bin] < par_refs {
+        while let Some((b, w)) = c.work.pop() {
+            c.fill(b, w);
+        }
+        return Frag {
+            nodes: c.nodes,
+            packets: c.packets,
+            subs: Vec::new(),
+        };
+    }
+    use rayon::prelude::*;
+    let work = std::mem::take(&mut c.work);
+    // The sequential collapse pops its work stack: the last child first.
+    let subs = work
+        .into_par_iter()
+        .rev()
+        .map(|(b, w)| (w, fragment::<W>(bvh, tris, plan, refs, par_refs, b)))
+        .collect();
+    Frag {
+        nodes: c.nodes,
+        packets: c.packets,
+        subs,
+    }
+}
+
+/// The node and packet arrays of the whole tree from the root's fragment.
+fn flatten<const W: usize>(root: Frag<W>) -> (Vec<WideNode<W>>, Vec<TriPacket>) {
+    if root.subs.is_empty() {
+        // Built in one piece: local indices are the global ones.
+        return (root.nodes, root.packets);
+    }
+    fn count<const W: usize>(f: &Frag<W>) -> (usize, usize) {
+        f.subs
+            .iter()
+            .fold((f.nodes.len(), f.packets.len()), |(n, p), (_, s)| {
+                let (sn, sp) = count(s);
+                // A sub-fragment's own node fills a slot of its parent.
+                (n + sn - 1, p + sp)
+            })
+    }
+    let (n_nodes, n_packets) = count(&root);
+    let mut nodes = Vec::with_capacity(n_nodes);
+    let mut packets = Vec::with_capacity(n_packets);
+    nodes.push(WideNode::EMPTY);
+    place(&root, 0, &mut nodes, &mut packets);
+    debug_assert_eq!((nodes.len(), packets.len()), (n_nodes, n_packets));
+    (nodes, packets)
+}
+
+/// Appends fragment `f` (its own node into `slot`, its block at the end), then its
+/// sub-fragments.
+fn place<const W: usize>(
+    f: &Frag<W>,
+    slot: usize,
+    nodes: &mut Vec<WideNode<W>>,
+    packets: &mut Vec<TriPacket>,
+) {
+    let (base, pbase) = (nodes.len(), packets.len());
+    nodes[slot] = relocate(&f.nodes[0], base, pbase);
+    nodes.extend(f.nodes[1..].iter().map(|n| relocate(n, base, pbase)));
+    packets.extend_from_slice(&f.packets);
+    for (w, sub) in &f.subs {
+        place(sub, base + w - 1, nodes, packets);
+    }
+}
+
+/// A fragment's node with global indices: local node `j >= 1` is node `base + j - 1` (no
+/// child is the fragment's own node `0`), packets start at `pbase`.
+fn relocate<const W: usize>(n: &WideNode<W>, base: usize, pbase: usize) -> WideNode<W> {
+    let mut out = *n;
+    for s in 0..W {
+        if n.valid & (1 << s) == 0 {
+            continue;
+        }
+        let c = n.children[s];
+        out.children[s] = if c & LEAF_BIT != 0 {
+            let (first, count) = decode_leaf(c);
+            let first = first + pbase;
+            assert!(
+                first + MAX_LEAF_PACKETS <= LEAF_FIRST_MASK as usize,
+                "too many triangle packets"
+            );
+            encode_leaf(first, count)
+        } else {
+            debug_assert!(c >= 1);
+            (base + c as usize - 1) as u32
+        };
+    }
+    out
 }
 
 /// Most entries the traversal stack can hold: at an inner node `n` it holds the pending
@@ -330,14 +577,30 @@ fn rows(b: &Aabb) -> [f32; 6] {
     [b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z]
 }
 
-impl<const W: usize> Collapser<'_, W> {
+impl<'a, const W: usize> Collapser<'a, W> {
+    fn new(bvh: &'a Bvh, tris: Source<'a>, plan: &'a Plan, nodes: Vec<WideNode<W>>) -> Self {
+        Self {
+            bvh,
+            tris,
+            nodes,
+            packets: Vec::new(),
+            work: Vec::new(),
+            plan,
+            prims: Vec::new(),
+            todo: Vec::new(),
+        }
+    }
+
     /// The wide child standing for binary node `bin`: a leaf over its subtree or a (not yet
     /// filled) wide node, as planned.
     fn child(&mut self, bin: usize) -> u32 {
         let node = self.bvh.nodes[bin];
         if self.plan.is_leaf(bin) {
-            let prims = self.subtree_prims(bin);
-            return self.leaf(prims, &node.bounds());
+            let mut prims = std::mem::take(&mut self.prims);
+            self.subtree_prims(bin, &mut prims);
+            let leaf = self.leaf(&mut prims, &node.bounds());
+            self.prims = prims;
+            return leaf;
         }
         let k = self.nodes.len();
         self.nodes.push(WideNode::EMPTY);
@@ -345,10 +608,12 @@ impl<const W: usize> Collapser<'_, W> {
         k as u32
     }
 
-    /// The distinct references of a binary subtree.
-    fn subtree_prims(&self, bin: usize) -> Vec<u32> {
-        let mut prims = Vec::new();
-        let mut todo = vec![bin];
+    /// The distinct references of a binary subtree, sorted, into `prims`.
+    fn subtree_prims(&mut self, bin: usize, prims: &mut Vec<u32>) {
+        prims.clear();
+        let todo = &mut self.todo;
+        todo.clear();
+        todo.push(bin);
         while let Some(i) = todo.pop() {
             let node = &self.bvh.nodes[i];
             if node.is_leaf() {
@@ -360,7 +625,6 @@ impl<const W: usize> Collapser<'_, W> {
         }
         prims.sort_unstable();
         prims.dedup();
-        prims
     }
 
     /// Fills wide node `wide` from binary inner node `bin`: its children are the binary nodes
@@ -387,8 +651,8 @@ impl<const W: usize> Collapser<'_, W> {
 
     /// A leaf over `prims` (distinct) inside `bounds`: packets of 4, or a small subtree of
     /// leaves when there are more than [`LEAF_MAX`] references.
-    fn leaf(&mut self, mut prims: Vec<u32>, bounds: &Aabb) -> u32 {
-        for &p in &prims {
+    fn leaf(&mut self, prims: &mut [u32], bounds: &Aabb) -> u32 {
+        for &p in prims.iter() {
             assert!(
                 (p as usize) < self.tris.len(),
                 "the BVH references triangle {p}, but there are only {}",
@@ -401,7 +665,7 @@ impl<const W: usize> Collapser<'_, W> {
             let key = |p: u32| self.tris.centroid(p)[axis];
             prims.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
         }
-        self.big_leaf(&prims, bounds)
+        self.big_leaf(prims, bounds)
     }
 
     fn big_leaf(&mut self, prims: &[u32], bounds: &Aabb) -> u32 {
@@ -517,7 +781,7 @@ mod tests {
 
     fn check<const W: usize>(bvh: &Bvh, tris: &[Triangle]) {
         let refs = refs(bvh);
-        let plan = Plan::new(bvh, &refs, W);
+        let plan = Plan::new(bvh, &refs, W, None, Par::DEFAULT);
         let w = collapse::<W>(bvh, Source::Triangles(tris));
         // The built tree is the planned one (no leaf exceeds 32 references here).
         let (planned, built) = (plan.root_cost, wide_cost(&w));
@@ -549,30 +813,54 @@ mod tests {
         assert!(seen.iter().all(|&s| s == 1));
         // Deterministic, bit for bit.
         let again = collapse::<W>(bvh, Source::Triangles(tris));
-        let bits = |w: &WideBvh<W>| -> Vec<u32> {
-            w.nodes
-                .iter()
-                .flat_map(|n| {
-                    n.bounds
-                        .iter()
-                        .flatten()
-                        .map(|f| f.to_bits())
-                        .chain(n.children)
-                        .chain([n.valid])
-                        .collect::<Vec<_>>()
-                })
-                .chain(w.packets.iter().flat_map(|p| {
-                    p.v.iter()
-                        .flatten()
-                        .flatten()
-                        .map(|f| f.to_bits())
-                        .chain(p.prims)
-                        .collect::<Vec<_>>()
-                }))
-                .chain([w.root, w.max_stack as u32])
-                .collect()
-        };
         assert_eq!(bits(&w), bits(&again));
+        same_bits_in_parallel(bvh, tris, &w);
+    }
+
+    /// Every bit of a wide tree.
+    fn bits<const W: usize>(w: &WideBvh<W>) -> Vec<u32> {
+        w.nodes
+            .iter()
+            .flat_map(|n| {
+                n.bounds
+                    .iter()
+                    .flatten()
+                    .map(|f| f.to_bits())
+                    .chain(n.children)
+                    .chain([n.valid])
+                    .collect::<Vec<_>>()
+            })
+            .chain(w.packets.iter().flat_map(|p| {
+                p.v.iter()
+                    .flatten()
+                    .flatten()
+                    .map(|f| f.to_bits())
+                    .chain(p.prims)
+                    .collect::<Vec<_>>()
+            }))
+            .chain([w.root, w.max_stack as u32])
+            .collect()
+    }
+
+    /// Whatever runs in parallel (every subtree, some, or none), the collapse gives `w`'s bits.
+    fn same_bits_in_parallel<const W: usize>(bvh: &Bvh, tris: &[Triangle], w: &WideBvh<W>) {
+        for par in [
+            Par {
+                plan_nodes: 1,
+                refs: 1,
+            },
+            Par {
+                plan_nodes: 3,
+                refs: 40,
+            },
+            Par {
+                plan_nodes: usize::MAX,
+                refs: u64::MAX,
+            },
+        ] {
+            let p = collapse_with::<W>(bvh, Source::Triangles(tris), par);
+            assert_eq!(bits(w), bits(&p));
+        }
     }
 
     #[test]
@@ -585,6 +873,27 @@ mod tests {
                 check::<8>(&bvh, &tris);
             }
         }
+    }
+
+    #[test]
+    fn parallel_collapse_is_bit_identical_with_spatial_splits_and_on_any_thread_count() {
+        let tris = soup(400, 6);
+        let bvh = build("sbvh", &tris);
+        assert!(bvh.spatial_splits);
+        let w = collapse::<8>(&bvh, Source::Triangles(&tris));
+        same_bits_in_parallel(&bvh, &tris, &w);
+        let tris = soup(20_000, 7);
+        let bvh = build("binned", &tris);
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let w = one.install(|| collapse::<8>(&bvh, Source::Triangles(&tris)));
+        assert_eq!(
+            bits(&w),
+            bits(&collapse::<8>(&bvh, Source::Triangles(&tris)))
+        );
+        same_bits_in_parallel(&bvh, &tris, &w);
     }
 
     #[test]
