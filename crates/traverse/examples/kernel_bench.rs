@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run --release -p sahara-traverse --example kernel_bench -- \
-//!     --scene sponza_dabrovic --rays /tmp/sponza.diffuse.rays \
+//!     --scene sponza_dabrovic --rays sponza.diffuse.rays \
 //!     [--builder sweep] [--layout bvh8|bvh4] [--backend avx512|avx2|sse2|portable] \
 //!     [--any] [--passes 5] [--limit N] [--inexact]
 //! ```
