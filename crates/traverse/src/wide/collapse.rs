@@ -550,9 +550,10 @@ fn relocate<const W: usize>(n: &WideNode<W>, base: usize, pbase: usize) -> WideN
     out
 }
 
-/// Most entries the traversal stack can hold: at an inner node `n` it holds the pending
-/// siblings of `n`'s ancestors (at most `Σ (children - 1)` over them) plus, briefly, all of
-/// `n`'s children.
+/// Most entries the traversal stack can hold, plus `W`: at an inner node `n` it holds the
+/// pending siblings of `n`'s ancestors (at most `Σ (children - 1)` over them) plus, briefly,
+/// all of `n`'s children; the branch-free pushes (`Stack::push_if`, `Stack::spare`) write up
+/// to `W` entries above the pending ones.
 fn stack_bound<const W: usize>(nodes: &[WideNode<W>], root: u32) -> usize {
     let mut bound = 1;
     if root & LEAF_BIT != 0 {
@@ -570,7 +571,7 @@ fn stack_bound<const W: usize>(nodes: &[WideNode<W>], root: u32) -> usize {
             }
         }
     }
-    bound
+    bound + W
 }
 
 fn rows(b: &Aabb) -> [f32; 6] {
@@ -646,6 +647,7 @@ impl<'a, const W: usize> Collapser<'a, W> {
             out.children[s] = self.child(c);
             out.valid |= 1 << s;
         }
+        out.set_order();
         self.nodes[wide] = out;
     }
 
@@ -701,6 +703,7 @@ impl<'a, const W: usize> Collapser<'a, W> {
             out.children[s] = self.big_leaf(part, &b);
             out.valid |= 1 << s;
         }
+        out.set_order();
         self.nodes[k] = out;
         k as u32
     }
@@ -828,6 +831,7 @@ mod tests {
                     .map(|f| f.to_bits())
                     .chain(n.children)
                     .chain([n.valid])
+                    .chain(n.order.map(u32::from))
                     .collect::<Vec<_>>()
             })
             .chain(w.packets.iter().flat_map(|p| {
@@ -873,6 +877,42 @@ mod tests {
                 check::<8>(&bvh, &tris);
             }
         }
+    }
+
+    /// Every node's stored child order, for every octant class, is a permutation of the slots
+    /// with the used slots first, sorted by the centre's projection on the octant's diagonal.
+    fn check_orders<const W: usize>(w: &WideBvh<W>) {
+        for node in w.nodes.iter() {
+            for q in 0..4 {
+                let p = node.order_bits(q);
+                let slots: Vec<usize> = (0..W).map(|k| (p >> (3 * k)) as usize & 7).collect();
+                let mut sorted = slots.clone();
+                sorted.sort_unstable();
+                assert_eq!(
+                    sorted,
+                    (0..W).collect::<Vec<_>>(),
+                    "not a permutation: {slots:?}"
+                );
+                let used = node.child_count();
+                assert!(slots[..used].iter().all(|&s| node.valid & (1 << s) != 0));
+                let sign = [1.0 - 2.0 * (q & 1) as f64, 1.0 - (q & 2) as f64, 1.0];
+                let key = |s: usize| {
+                    let b = node.child_bounds(s);
+                    (0..3)
+                        .map(|a| sign[a] * (b.min[a] as f64 + b.max[a] as f64))
+                        .sum::<f64>()
+                };
+                assert!(slots[..used].windows(2).all(|x| key(x[0]) <= key(x[1])));
+            }
+        }
+    }
+
+    #[test]
+    fn child_orders_follow_the_octants() {
+        let tris = soup(3000, 6);
+        let bvh = build("sweep", &tris);
+        check_orders(&collapse::<4>(&bvh, Source::Triangles(&tris)));
+        check_orders(&collapse::<8>(&bvh, Source::Triangles(&tris)));
     }
 
     #[test]

@@ -594,6 +594,7 @@ impl<const W: usize> WideBvh<W> {
                     row[s] = v;
                 }
             }
+            out.set_order();
             self.nodes[i] = out;
         }
         self.root_bounds = if self.root & LEAF_BIT != 0 {

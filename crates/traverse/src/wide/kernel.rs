@@ -36,6 +36,16 @@ pub(crate) struct RayData {
     pub(crate) far_row: [usize; 3],
     /// The watertight test's constants; filled in by [`RayData::finish`] after the root test.
     pub(crate) w: WatertightRay,
+    /// The ray's octant class: which of a node's four stored child orders
+    /// ([`WideNode::order_bits`]) applies (the octant's, or the opposite octant's when the
+    /// direction's z component is negative), and how [`descend_ordered`] reads it: `7` when
+    /// it is this ray's near-to-far order (read from the last position, far first), `0` when
+    /// it is the opposite octant's, i.e. this ray's far-to-near order (read from the first).
+    pub(crate) order_q: usize,
+    pub(crate) order_xor: usize,
+    /// The direction (only the benchmark-only inexact test needs it).
+    #[cfg(feature = "inexact-bench")]
+    pub(crate) dir: [f32; 3],
 }
 
 impl RayData {
@@ -45,11 +55,17 @@ impl RayData {
         let (far_pos, far_neg) = far_factors(ray.inv_direction);
         let mut near_row = [0; 3];
         let mut far_row = [0; 3];
+        let mut octant = 0;
         for a in 0..3 {
             let neg = inv[a].is_sign_negative() as usize;
             near_row[a] = 2 * a + neg;
             far_row[a] = 2 * a + 1 - neg;
+            octant |= neg << a;
         }
+        // Octants with a negative z direction use the order of the opposite octant backwards.
+        let flip = octant >> 2;
+        let order_q = (octant ^ (flip * 3)) & 3;
+        let order_xor = (1 - flip) * 7;
         Self {
             origin: ray.origin.to_array(),
             inv,
@@ -68,6 +84,10 @@ impl RayData {
                 ky: 1,
                 shear: sahara_geom::Vec3A::ZERO,
             },
+            order_q,
+            order_xor,
+            #[cfg(feature = "inexact-bench")]
+            dir: ray.direction.to_array(),
         }
     }
 
@@ -159,6 +179,22 @@ pub(crate) trait Kernel<const W: usize> {
         out: &mut PacketHits,
     ) -> (u32, u32);
 
+    /// [`descend_ordered`]: pushes the children in `mask` in the node's order for the ray's
+    /// octant and returns the nearest (a backend may do it in SIMD registers).
+    ///
+    /// # Safety
+    /// As for [`Kernel::prepare`].
+    #[inline(always)]
+    unsafe fn descend<St: Stack>(
+        node: &WideNode<W>,
+        mask: u32,
+        dist: &[f32; W],
+        rd: &RayData,
+        stack: &mut St,
+    ) -> Option<u32> {
+        descend_ordered(node, mask, dist, rd, stack)
+    }
+
     /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`.
     ///
     /// # Safety
@@ -170,7 +206,9 @@ pub(crate) trait Kernel<const W: usize> {
     ) -> (u32, u32);
 }
 
-/// A traversal stack entry: a child reference and its entry distance.
+/// A traversal stack entry: a child reference and its entry distance (`repr(C)`: the AVX2
+/// descent writes entries as pairs of 32-bit lanes).
+#[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Entry {
     pub(crate) child: u32,
@@ -180,6 +218,18 @@ pub(crate) struct Entry {
 /// The traversal stack.
 pub(crate) trait Stack {
     fn push(&mut self, e: Entry);
+    /// Writes `e` above the top and keeps it when `keep` (branch-free for [`FixedStack`]: the
+    /// entry is written either way and overwritten by the next push when not kept; the tree's
+    /// stack bound counts that extra slot).
+    fn push_if(&mut self, e: Entry, keep: bool);
+    /// Room for `n` entries above the top: where to write them (then [`Stack::grow`]).
+    fn spare(&mut self, n: usize) -> *mut Entry;
+    /// Keeps `n` entries written above the top after [`Stack::spare`].
+    ///
+    /// # Safety
+    /// `spare(m)` with `m >= n` was called since the last change of the stack, and the `n`
+    /// entries were written.
+    unsafe fn grow(&mut self, n: usize);
     fn pop(&mut self) -> Option<Entry>;
     /// The last `n` entries, mutable (for sorting them).
     fn top_mut(&mut self, n: usize) -> &mut [Entry];
@@ -230,6 +280,30 @@ impl Stack for FixedStack<'_> {
     }
 
     #[inline(always)]
+    fn push_if(&mut self, e: Entry, keep: bool) {
+        if self.len >= FIXED_STACK {
+            overflow();
+        }
+        // SAFETY: `len < FIXED_STACK`.
+        unsafe { self.ptr().add(self.len).write(e) };
+        self.len += keep as usize;
+    }
+
+    #[inline(always)]
+    fn spare(&mut self, n: usize) -> *mut Entry {
+        if self.len + n > FIXED_STACK {
+            overflow();
+        }
+        // SAFETY: `len + n <= FIXED_STACK`.
+        unsafe { self.ptr().add(self.len) }
+    }
+
+    #[inline(always)]
+    unsafe fn grow(&mut self, n: usize) {
+        self.len += n;
+    }
+
+    #[inline(always)]
     fn pop(&mut self) -> Option<Entry> {
         if self.len == 0 {
             return None;
@@ -261,6 +335,23 @@ impl Stack for VecStack {
     #[inline]
     fn push(&mut self, e: Entry) {
         self.0.push(e);
+    }
+    #[inline]
+    fn push_if(&mut self, e: Entry, keep: bool) {
+        if keep {
+            self.0.push(e);
+        }
+    }
+    #[inline]
+    fn spare(&mut self, n: usize) -> *mut Entry {
+        self.0.reserve(n);
+        // SAFETY: the capacity is at least `len + n`.
+        unsafe { self.0.as_mut_ptr().add(self.0.len()) }
+    }
+    #[inline]
+    unsafe fn grow(&mut self, n: usize) {
+        // SAFETY: the caller wrote `n` entries within the reserved capacity.
+        unsafe { self.0.set_len(self.0.len() + n) };
     }
     #[inline]
     fn pop(&mut self) -> Option<Entry> {
@@ -435,6 +526,59 @@ pub(crate) fn descend_closest<const W: usize, St: Stack>(
     stack.pop().map(|e| e.child)
 }
 
+/// Pushes the children of `node` in `mask` so that they are popped near to far in the node's
+/// stored order for the ray's octant (Fuetterling et al. 2017: the order of the child boxes'
+/// centres along the octant's diagonal, precomputed by the collapse), and returns the nearest,
+/// which is visited next (not pushed); `None` for an empty mask. Unlike [`descend_closest`] it
+/// does not sort by entry distance: the push is a branch-free pass over the `W` slots. The
+/// order only changes the speed: closest-hit culling still uses each child's own entry
+/// distance, and hits are compared with `Hit::is_improved_by`.
+#[inline(always)]
+pub(crate) fn descend_ordered<const W: usize, St: Stack>(
+    node: &WideNode<W>,
+    mask: u32,
+    dist: &[f32; W],
+    rd: &RayData,
+    stack: &mut St,
+) -> Option<u32> {
+    debug_assert_eq!(mask & !node.valid, 0, "an unused slot's empty box was hit");
+    if mask == 0 {
+        return None;
+    }
+    let i0 = lane::<W>(mask);
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return Some(node.children[i0]);
+    }
+    if rest & (rest - 1) == 0 {
+        // Two children: the nearer by entry distance (one comparison, no pass over the slots).
+        let i1 = lane::<W>(rest);
+        let (near, far) = if dist[i1] < dist[i0] {
+            (i1, i0)
+        } else {
+            (i0, i1)
+        };
+        stack.push(Entry {
+            child: node.children[far],
+            dist: dist[far],
+        });
+        return Some(node.children[near]);
+    }
+    let p = node.order_bits(rd.order_q);
+    let x = rd.order_xor & (W - 1);
+    for i in 0..W {
+        let s = (p >> (3 * (i ^ x))) as usize & (W - 1);
+        stack.push_if(
+            Entry {
+                child: node.children[s],
+                dist: dist[s],
+            },
+            (mask >> s) & 1 != 0,
+        );
+    }
+    stack.pop().map(|e| e.child)
+}
+
 /// Pushes the children of `node` in `mask` but the first, which is returned (any-hit
 /// traversal: no order).
 #[inline(always)]
@@ -498,7 +642,8 @@ pub(crate) unsafe fn enter<
         K::intersect_node::<NEG>(node, &kr, rd, tfar, &mut dist)
     };
     if closest {
-        descend_closest(node, mask, &dist, stack)
+        // SAFETY: forwarded from the caller.
+        unsafe { K::descend(node, mask, &dist, rd, stack) }
     } else {
         descend_any(node, mask, stack)
     }
@@ -551,7 +696,8 @@ pub(crate) unsafe fn closest_hit<
             let node = unsafe { bvh.nodes.get_unchecked(cur as usize) };
             // SAFETY: forwarded.
             let mask = unsafe { K::intersect_node::<NEG>(node, &kr, &rd, tfar, &mut dist) };
-            if let Some(next) = descend_closest(node, mask, &dist, stack) {
+            // SAFETY: forwarded.
+            if let Some(next) = unsafe { K::descend(node, mask, &dist, &rd, stack) } {
                 cur = next;
                 continue;
             }
@@ -640,6 +786,56 @@ pub(crate) unsafe fn any_hit<
         match stack.pop() {
             None => return false,
             Some(e) => cur = e.child,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::Vec3A;
+
+    /// A node whose 8 children are unit boxes on a diagonal line, in a shuffled slot order:
+    /// for every octant, the ordered descent visits them nearest first along the ray.
+    #[test]
+    fn ordered_descent_is_near_to_far_in_every_octant() {
+        let mut node = WideNode::<8>::EMPTY;
+        let place = [3usize, 7, 0, 5, 1, 6, 2, 4];
+        for (s, &k) in place.iter().enumerate() {
+            let c = k as f32 * 2.0;
+            let rows = [c, c + 1.0, c, c + 1.0, c, c + 1.0];
+            for (row, v) in node.bounds.iter_mut().zip(rows) {
+                row[s] = v;
+            }
+            node.children[s] = s as u32;
+            node.valid |= 1 << s;
+        }
+        node.set_order();
+        for oct in 0..8u32 {
+            let d = Vec3A::new(
+                if oct & 1 != 0 { -1.0 } else { 1.0 },
+                if oct & 2 != 0 { -1.0 } else { 1.0 },
+                if oct & 4 != 0 { -1.0 } else { 1.0 },
+            );
+            let ray = Ray::new(Vec3A::ZERO, d, 0.0, f32::INFINITY);
+            let rd = RayData::new(&ray);
+            let key = |s: u32| place[s as usize] as f32 * d.dot(Vec3A::ONE);
+            // Entry distances consistent with the geometry (two hits are ordered by them).
+            let dist: [f32; 8] = std::array::from_fn(|s| 100.0 + key(s as u32));
+            for mask in [0xffu32, 0b1010_0110, 0b0001_1000] {
+                let mut buf = FixedStack::buffer();
+                let mut st = FixedStack::new(&mut buf);
+                let mut seen = vec![descend_ordered(&node, mask, &dist, &rd, &mut st).unwrap()];
+                while let Some(e) = st.pop() {
+                    seen.push(e.child);
+                }
+                assert_eq!(seen.len(), mask.count_ones() as usize, "octant {oct}");
+                assert!(seen.iter().all(|&s| mask & (1 << s) != 0));
+                assert!(
+                    seen.windows(2).all(|w| key(w[0]) <= key(w[1])),
+                    "octant {oct}, mask {mask:#x}: {seen:?}"
+                );
+            }
         }
     }
 }

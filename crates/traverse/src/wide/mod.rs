@@ -17,8 +17,13 @@
 //! axis). Every triangle keeps its original index, and spatial-split trees (a triangle in
 //! several leaves) are supported.
 //!
-//! **Kernels.** Closest hit and any hit, stack-based, children visited near to far (the hit
-//! children are sorted by entry distance). Four backends share the traversal code
+//! **Kernels.** Closest hit and any hit, stack-based. Closest-hit traversal visits the hit
+//! children near to far in an order fixed per ray octant (Fuetterling et al. 2017, as in
+//! tinybvh's `BVH8_CPU` and Ylitie et al.'s CWBVH): the collapse stores in each node the order
+//! of its children's centres along the diagonals of four octants (the other four read them
+//! backwards), so the descent needs no distance sort: two hit children are ordered by their
+//! entry distances, three or more are pushed in the stored order (branch-free; with AVX2 a lane
+//! permutation and two 256-bit stores). Any-hit traversal visits them in slot order. Four backends share the traversal code
 //! ([`Backend`]): AVX-512 (the AVX2 kernels with AVX-512F/VL enabled: 256-bit vectors, mask
 //! registers, 32 vector registers), AVX2 (8-wide `f32` box tests with 256-bit registers), SSE2
 //! (4-wide; an 8-wide node is tested in two halves) and a portable scalar implementation of the
@@ -125,15 +130,20 @@ pub(crate) fn decode_leaf(child: u32) -> (usize, usize) {
 /// minus one in bits 28–30, the first packet in bits 0–27). Slots whose bit is clear in
 /// `valid` are unused; they hold an empty box (minimum `+∞`, maximum `-∞`), whose near slab
 /// distance is `+∞` and far slab distance `-∞` on every axis for every valid ray, so the box
-/// tests reject them without a mask. 64-byte aligned: 128 bytes for `W = 4`, 256 bytes for
-/// `W = 8`.
+/// tests reject them without a mask. `order` holds the near-to-far order of the slots for four
+/// ray octants ([`WideNode::order_bits`]), in what was padding. 64-byte aligned: 128 bytes for
+/// `W = 4`, 256 bytes for `W = 8`.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WideNode<const W: usize> {
     pub(crate) bounds: [[f32; W]; 6],
     pub(crate) children: [u32; W],
     pub(crate) valid: u32,
+    pub(crate) order: [u16; W],
 }
+
+const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
 
 impl<const W: usize> WideNode<W> {
     pub(crate) const EMPTY: Self = Self {
@@ -147,7 +157,57 @@ impl<const W: usize> WideNode<W> {
         ],
         children: [u32::MAX; W],
         valid: 0,
+        order: [0; W],
     };
+
+    /// The near-to-far order of the slots for the rays of octant class `q` (`0..4`: the sign
+    /// bits of the direction's x and y components, z non-negative), as `W` slot numbers of 3
+    /// bits, nearest in the lowest bits. The octant with all three signs flipped uses the
+    /// same order backwards. Used slots come first; the order is that of the child boxes'
+    /// centres projected on the octant's diagonal `(±1, ±1, 1)` (ties: lower slot first), so it
+    /// is only a guess of the entry order, and only the speed of traversal depends on it.
+    #[inline(always)]
+    pub(crate) fn order_bits(&self, q: usize) -> u32 {
+        if W == 8 {
+            u32::from(self.order[(2 * q) & (W - 1)])
+                | u32::from(self.order[(2 * q + 1) & (W - 1)]) << 16
+        } else {
+            u32::from(self.order[q & (W - 1)])
+        }
+    }
+
+    /// Computes [`WideNode::order_bits`] from the bounds (after the collapse or a refit).
+    pub(crate) fn set_order(&mut self) {
+        // Octant class `q` takes bits `4 W q ..` of the `16 W`-bit field.
+        let mut bits: u128 = 0;
+        for q in 0..4 {
+            let sign = [
+                if q & 1 != 0 { -1.0 } else { 1.0 },
+                if q & 2 != 0 { -1.0 } else { 1.0 },
+                1.0f64,
+            ];
+            let key = |s: usize| -> f64 {
+                if self.valid & (1 << s) == 0 {
+                    return f64::INFINITY;
+                }
+                (0..3)
+                    .map(|a| {
+                        sign[a] * (self.bounds[2 * a][s] as f64 + self.bounds[2 * a + 1][s] as f64)
+                    })
+                    .sum()
+            };
+            let mut slots: [usize; W] = std::array::from_fn(|i| i);
+            slots.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+            let mut p = 0u128;
+            for (k, &s) in slots.iter().enumerate() {
+                p |= (s as u128) << (3 * k);
+            }
+            bits |= p << (4 * W * q);
+        }
+        for (i, o) in self.order.iter_mut().enumerate() {
+            *o = (bits >> (16 * i)) as u16;
+        }
+    }
 
     /// Number of used child slots.
     #[inline]
@@ -353,6 +413,7 @@ impl<const W: usize> WideBvh<W> {
             n.bounds.iter().flatten().for_each(|f| eat(f.to_bits()));
             n.children.iter().for_each(|&c| eat(c));
             eat(n.valid);
+            n.order.iter().for_each(|&o| eat(o.into()));
         }
         eat(self.packets.len() as u32);
         for p in self.packets.iter() {
@@ -366,6 +427,42 @@ impl<const W: usize> WideBvh<W> {
         let (lo, hi) = self.root_bounds.to_arrays();
         lo.iter().chain(&hi).for_each(|f| eat(f.to_bits()));
         h
+    }
+}
+
+#[cfg(all(feature = "inexact-bench", target_arch = "x86_64"))]
+impl<const W: usize> WideBvh<W> {
+    /// Benchmark only (cargo feature `inexact-bench`, off by default): closest hit with the
+    /// AVX2 box tests and a non-watertight Möller–Trumbore triangle test. Its answers are
+    /// **not** those of the reference kernels (no exactness, no watertightness); it exists to
+    /// measure what exactness costs.
+    ///
+    /// # Panics
+    ///
+    /// If the CPU lacks AVX2 or FMA.
+    #[doc(hidden)]
+    pub fn closest_hit_inexact<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> Hit {
+        assert!(
+            Backend::Avx2.is_available(),
+            "the inexact kernel needs AVX2 and FMA"
+        );
+        // SAFETY: AVX2 and FMA are present.
+        unsafe { x86::inexact::closest_hit_avx2_mt(self, ray, stats) }
+    }
+
+    /// Benchmark only: the any-hit version of [`WideBvh::closest_hit_inexact`].
+    ///
+    /// # Panics
+    ///
+    /// If the CPU lacks AVX2 or FMA.
+    #[doc(hidden)]
+    pub fn any_hit_inexact<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        assert!(
+            Backend::Avx2.is_available(),
+            "the inexact kernel needs AVX2 and FMA"
+        );
+        // SAFETY: AVX2 and FMA are present.
+        unsafe { x86::inexact::any_hit_avx2_mt(self, ray, stats) }
     }
 }
 

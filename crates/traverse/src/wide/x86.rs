@@ -7,7 +7,9 @@
 //! operations in the same order (Rust never contracts a multiply and an add into an FMA), and
 //! reports lanes with an edge function exactly zero for the exact scalar fallback.
 
-use super::kernel::{self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK};
+use super::kernel::{
+    self, descend_ordered, FixedStack, Kernel, PacketHits, RayData, Stack, VecStack, FIXED_STACK,
+};
 use super::{TriPacket, WideBvh, WideNode};
 use crate::{Hit, TraversalStats};
 use sahara_geom::Ray;
@@ -40,6 +42,9 @@ pub(crate) struct SseRay {
     /// [`dominant_slab4`].
     w_far: __m128,
     w_far_neg: __m128,
+    /// The direction, for the benchmark-only Möller–Trumbore test ([`inexact`]).
+    #[cfg(feature = "inexact-bench")]
+    dir: [__m128; 3],
 }
 
 #[inline(always)]
@@ -78,6 +83,8 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
             w_axis: [kx, ky, kz],
             w_far: _mm_set1_ps(rd.inv_far[kz]),
             w_far_neg: _mm_set1_ps(rd.inv_far_neg[kz]),
+            #[cfg(feature = "inexact-bench")]
+            dir: rd.dir.map(|x| _mm_set1_ps(x)),
         }
     }
 }
@@ -455,6 +462,89 @@ unsafe fn slabs8<const W: usize, const NEG: bool>(
     }
 }
 
+/// For every 8-bit mask, the positions of its set bits in increasing order, 3 bits each
+/// (lowest first): the lane permutation that packs the set lanes at the bottom.
+static COMPACT8: [u32; 256] = {
+    let mut t = [0u32; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut p, mut k, mut b) = (0u32, 0u32, 0u32);
+        while b < 8 {
+            if (m >> b) & 1 != 0 {
+                p |= b << (3 * k);
+                k += 1;
+            }
+            b += 1;
+        }
+        t[m] = p;
+        m += 1;
+    }
+    t
+};
+
+/// [`descend_ordered`] of an 8-wide node in AVX2 registers: the node's order for the ray's
+/// octant becomes a lane permutation (far first), the hit lanes are packed at the bottom with
+/// [`COMPACT8`], and the children with their entry distances are written to the stack as two
+/// 256-bit stores; the nearest (the last hit lane) is returned instead of pushed.
+///
+/// # Safety
+/// AVX2 must be present; `W == 8`.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn descend8<const W: usize, St: Stack>(
+    node: &WideNode<W>,
+    mask: u32,
+    dist: &[f32; W],
+    rd: &RayData,
+    stack: &mut St,
+) -> Option<u32> {
+    debug_assert_eq!(W, 8);
+    debug_assert_eq!(mask & !node.valid, 0, "an unused slot's empty box was hit");
+    if mask == 0 {
+        return None;
+    }
+    if mask & (mask - 1) == 0 {
+        return Some(node.children[mask.trailing_zeros() as usize & (W - 1)]);
+    }
+    // SAFETY: `W == 8`: `children` and `dist` hold 8 lanes; `spare(8)` makes room for the two
+    // stores; `Entry` is `repr(C)` (`child`, `dist`).
+    unsafe {
+        let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let three = _mm256_set1_epi32(3);
+        let seven = _mm256_set1_epi32(7);
+        // Lane i: the slot at stored position `i ^ order_xor` (far to near).
+        let shift = _mm256_mullo_epi32(
+            _mm256_xor_si256(lanes, _mm256_set1_epi32(rd.order_xor as i32)),
+            three,
+        );
+        let p = node.order_bits(rd.order_q) as i32;
+        let idx = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(p), shift), seven);
+        // The hit bit of each lane's slot, in the sign bit.
+        let hit = _mm256_slli_epi32::<31>(_mm256_srlv_epi32(_mm256_set1_epi32(mask as i32), idx));
+        let m = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
+        let n = m.count_ones() as usize;
+        let packed = COMPACT8[m as usize & 255] as i32;
+        let pick = _mm256_and_si256(
+            _mm256_srlv_epi32(_mm256_set1_epi32(packed), _mm256_mullo_epi32(lanes, three)),
+            seven,
+        );
+        let fin = _mm256_permutevar8x32_epi32(idx, pick);
+        let c = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(node.children.as_ptr().cast()), fin);
+        let d = _mm256_castps_si256(_mm256_permutevar8x32_ps(
+            _mm256_loadu_ps(dist.as_ptr()),
+            fin,
+        ));
+        let lo = _mm256_unpacklo_epi32(c, d);
+        let hi = _mm256_unpackhi_epi32(c, d);
+        let out = stack.spare(8).cast::<__m256i>();
+        _mm256_storeu_si256(out, _mm256_permute2x128_si256::<0x20>(lo, hi));
+        _mm256_storeu_si256(out.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
+        stack.grow(n - 1);
+        let near = _mm256_permutevar8x32_epi32(c, _mm256_set1_epi32(n as i32 - 1));
+        Some(_mm256_cvtsi256_si32(near) as u32)
+    }
+}
+
 /// The AVX2 backend: 8-wide box tests in 256-bit registers (4-wide nodes and triangle
 /// packets use the SSE code, compiled with VEX encoding).
 pub(crate) struct Avx2;
@@ -480,6 +570,21 @@ impl<const W: usize> Kernel<W> for Avx2 {
             let (near, far) = slabs8::<W, NEG>(node, r, rd, tfar, dist);
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
         }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn descend<St: Stack>(
+        node: &WideNode<W>,
+        mask: u32,
+        dist: &[f32; W],
+        rd: &RayData,
+        stack: &mut St,
+    ) -> Option<u32> {
+        if W != 8 {
+            return descend_ordered(node, mask, dist, rd, stack);
+        }
+        // SAFETY: `W == 8`; the caller guarantees the features.
+        unsafe { descend8(node, mask, dist, rd, stack) }
     }
 }
 
@@ -510,6 +615,21 @@ impl<const W: usize> Kernel<W> for Avx512 {
             let (near, far) = slabs8::<W, NEG>(node, r, rd, tfar, dist);
             u32::from(_mm256_cmp_ps_mask::<_CMP_LE_OQ>(near, far))
         }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    unsafe fn descend<St: Stack>(
+        node: &WideNode<W>,
+        mask: u32,
+        dist: &[f32; W],
+        rd: &RayData,
+        stack: &mut St,
+    ) -> Option<u32> {
+        if W != 8 {
+            return descend_ordered(node, mask, dist, rd, stack);
+        }
+        // SAFETY: `W == 8`; the caller guarantees the features.
+        unsafe { descend8(node, mask, dist, rd, stack) }
     }
 }
 
@@ -640,3 +760,129 @@ entry_points!(
     closest_avx512_slow,
     any_avx512_slow
 );
+
+/// Benchmark only (cargo feature `inexact-bench`, off by default, never a [`Backend`]): the
+/// AVX2 kernels with the exact watertight triangle test replaced by a plain 4-wide
+/// Möller–Trumbore test (no shear, no `f64` fallback, no `accept_hit` bounds clamp). Its
+/// answers are *not* the reference's; it exists to price exactness.
+///
+/// [`Backend`]: super::Backend
+#[cfg(feature = "inexact-bench")]
+pub(crate) mod inexact {
+    use super::*;
+
+    pub(crate) struct Avx2Mt;
+
+    /// Möller–Trumbore on the 4 lanes of a packet against `[lo, hi]`: `(mask, t, u, v)`.
+    #[inline(always)]
+    unsafe fn mt4(
+        p: &TriPacket,
+        r: &SseRay,
+        lo: __m128,
+        hi: __m128,
+    ) -> (u32, __m128, __m128, __m128) {
+        // SAFETY (whole function): the packet is 16-byte aligned, rows hold 4 floats.
+        unsafe {
+            let base = p.v.as_ptr().cast::<f32>();
+            let ld = |k: usize, a: usize| _mm_load_ps(base.add(k * 12 + a * 4));
+            let v0 = [ld(0, 0), ld(0, 1), ld(0, 2)];
+            let e1 = [0, 1, 2].map(|a| _mm_sub_ps(ld(1, a), v0[a]));
+            let e2 = [0, 1, 2].map(|a| _mm_sub_ps(ld(2, a), v0[a]));
+            let d = r.dir;
+            let cross = |a: [__m128; 3], b: [__m128; 3]| {
+                [
+                    _mm_sub_ps(_mm_mul_ps(a[1], b[2]), _mm_mul_ps(a[2], b[1])),
+                    _mm_sub_ps(_mm_mul_ps(a[2], b[0]), _mm_mul_ps(a[0], b[2])),
+                    _mm_sub_ps(_mm_mul_ps(a[0], b[1]), _mm_mul_ps(a[1], b[0])),
+                ]
+            };
+            let dot = |a: [__m128; 3], b: [__m128; 3]| {
+                _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(a[0], b[0]), _mm_mul_ps(a[1], b[1])),
+                    _mm_mul_ps(a[2], b[2]),
+                )
+            };
+            let pv = cross(d, e2);
+            let det = dot(e1, pv);
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let sv = [0, 1, 2].map(|a| _mm_sub_ps(r.origin[a], v0[a]));
+            let u = _mm_mul_ps(dot(sv, pv), inv);
+            let qv = cross(sv, e1);
+            let v = _mm_mul_ps(dot(d, qv), inv);
+            let t = _mm_mul_ps(dot(e2, qv), inv);
+            let zero = _mm_setzero_ps();
+            let ok = _mm_and_ps(
+                _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmpge_ps(v, zero)),
+                _mm_and_ps(
+                    _mm_cmple_ps(_mm_add_ps(u, v), _mm_set1_ps(1.0)),
+                    _mm_and_ps(_mm_cmpge_ps(t, lo), _mm_cmple_ps(t, hi)),
+                ),
+            );
+            let ok = _mm_and_ps(ok, _mm_cmpneq_ps(det, zero));
+            (_mm_movemask_ps(ok) as u32, t, u, v)
+        }
+    }
+
+    impl<const W: usize> Kernel<W> for Avx2Mt {
+        type Ray = SseRay;
+
+        #[inline(always)]
+        unsafe fn prepare(rd: &RayData) -> SseRay {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { sse_ray::<W>(rd) }
+        }
+
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn intersect_node<const NEG: bool>(
+            node: &WideNode<W>,
+            r: &SseRay,
+            rd: &RayData,
+            tfar: f32,
+            dist: &mut [f32; W],
+        ) -> u32 {
+            // SAFETY: the caller guarantees AVX2 and FMA.
+            unsafe { <Avx2 as Kernel<W>>::intersect_node::<NEG>(node, r, rd, tfar, dist) }
+        }
+
+        #[inline(always)]
+        unsafe fn intersect_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+            tfar: f32,
+            out: &mut PacketHits,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
+            unsafe {
+                let hi = _mm_min_ps(r.t_hi, _mm_set1_ps(tfar));
+                let (m, t, u, v) = mt4(p, r, r.tmin, hi);
+                if m != 0 {
+                    _mm_storeu_ps(out.t.as_mut_ptr(), t);
+                    _mm_storeu_ps(out.u.as_mut_ptr(), u);
+                    _mm_storeu_ps(out.v.as_mut_ptr(), v);
+                }
+                (m, 0)
+            }
+        }
+
+        #[inline(always)]
+        unsafe fn occlude_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { (mt4(p, r, r.tmin, r.t_hi).0, 0) }
+        }
+    }
+
+    entry_points!(
+        Avx2Mt,
+        [#[target_feature(enable = "avx2,fma")]],
+        closest_hit_avx2_mt,
+        any_hit_avx2_mt,
+        closest_avx2_mt_slow,
+        any_avx2_mt_slow
+    );
+}
