@@ -13,6 +13,7 @@ mod obvhs;
 mod oracle_cmd;
 mod package_cmd;
 mod peers;
+mod reinsert_rays;
 mod scaling;
 mod scenes_cmd;
 mod study;
@@ -67,6 +68,9 @@ enum Cmd {
     /// The sensitivity study of the temporary-subtree builders (issue 15): one factor at a
     /// time against the sweep tree built under the same settings (`--quick`: ≤ 5 minutes).
     Study(study::Args),
+    /// Reinsertion driven by the ray-weighted cost of a training ray set, against sweep and
+    /// sweep+reinsert, measured on other rays (docs/builders-frontier.md, "Beyond SAH").
+    ReinsertRays(reinsert_rays::Args),
     /// `cargo package` with verification of every publishable crate together (takes minutes;
     /// not part of the test suite).
     Package(package_cmd::Args),
@@ -86,6 +90,7 @@ fn main() {
         Cmd::Hardcases(a) => hardcases::run(a),
         Cmd::Oracle(a) => oracle_cmd::run(a),
         Cmd::Study(a) => study::run(a),
+        Cmd::ReinsertRays(a) => reinsert_rays::run(a),
         Cmd::Package(a) => package_cmd::run(a),
     };
     if let Err(e) = result {

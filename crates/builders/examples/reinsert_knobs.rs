@@ -1,7 +1,7 @@
 //! Measures the reinsertion optimiser's knobs on one scene: for a base builder and a list of
 //! budgets, the SAH before and after, the moves, the iterations and the time.
 //!
-//! `cargo run --release -p sahara-builders --example reinsert_knobs -- SCENE BASE [BATCH,POOL,ITERS,MIN_GAIN[,SEARCH_LIMIT] ...]`
+//! `cargo run --release -p sahara-builders --example reinsert_knobs -- SCENE BASE [BATCH,DECAY,ITERS,MIN_GAIN[,SEARCH_LIMIT] ...]`
 //! (SCENE: a catalog name, procedural or shared; BASE: a registered builder).
 
 use std::time::Instant;
@@ -9,6 +9,24 @@ use std::time::Instant;
 use sahara_builders::reinsert::{optimize_with_stats, ReinsertConfig};
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_scene::Catalog;
+
+/// CPU seconds (user + system) of this process so far, from `/proc/self/stat` (Linux; 0
+/// elsewhere), so that the budgets can be compared on a loaded machine.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return 0.0;
+    };
+    // Fields after the command name (which ends with the last ')'): utime is the 12th, stime
+    // the 13th, in clock ticks (100 per second on Linux).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .skip(11)
+        .take(2)
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    f.iter().sum::<f64>() / 100.0
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -36,9 +54,9 @@ fn main() {
                 let f: Vec<f64> = s.split(',').map(|x| x.parse().expect("number")).collect();
                 ReinsertConfig {
                     batch_fraction: f[0],
-                    pool_fraction: f[1],
+                    decay: f[1],
                     max_iterations: f[2] as usize,
-                    min_round_gain: f[3],
+                    min_gain: f[3],
                     max_search_nodes: f.get(4).map_or(0, |&v| v as usize),
                 }
             })
@@ -46,19 +64,23 @@ fn main() {
     } else {
         vec![ReinsertConfig::THOROUGH, ReinsertConfig::LIGHT]
     };
-    println!("batch\tpool\titers\tmin_gain\tran\tmoves\tsah_after\tdrop_%\tsecs");
+    println!(
+        "batch\tdecay\titers\tmin_gain\tran\tsearches\tmoves\tsah_after\tdrop_%\tsecs\tcpu_secs"
+    );
     for c in configs {
-        let t0 = Instant::now();
+        let (t0, c0) = (Instant::now(), cpu_seconds());
         let (out, s) = optimize_with_stats(&bvh, &input.cost, &c).expect("optimize");
         let secs = t0.elapsed().as_secs_f64();
+        let cpu = cpu_seconds() - c0;
         out.validate(&tris).expect("valid");
         println!(
-            "{}\t{}\t{}\t{}\t{}\t{}\t{:.4}\t{:.2}\t{secs:.3}",
+            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.4}\t{:.2}\t{secs:.3}\t{cpu:.2}",
             c.batch_fraction,
-            c.pool_fraction,
+            c.decay,
             c.max_iterations,
-            c.min_round_gain,
+            c.min_gain,
             s.iterations,
+            s.searches,
             s.moves,
             s.sah_after,
             100.0 * (1.0 - s.sah_after / s.sah_before)

@@ -17,27 +17,28 @@
 //!   without `N`,
 //!
 //! all times `c_t` (leaves never change: their references and boxes stay as the input builder
-//! made them). The search for `X` is the branch and bound of Bittner et al. 2013, run on the
-//! tree *without* `N` (the ancestors of `P` use their boxes `A'`, `S` stands where `P` was): a
-//! priority queue ordered by the induced cost `Σ_{a ⊃ X} (A(a ∪ N) − A(a))`, pruned when the
-//! induced cost plus `A(N)` (the least the new node can cost) cannot beat the best position so
-//! far. The gain it reports is therefore the exact change of a move applied alone.
+//! made them). The search for `X` runs on the tree *without* `N` and starts where `N` was:
+//! it searches the subtree of the sibling `S`, then climbs, searching at each ancestor of `P`
+//! the subtree off the path (depth first, pruned by the bound "gain left above this subtree
+//! minus `A(N)`", which no target inside can beat) and trying the ancestor itself; see
+//! `Tree::best_move` and `docs/builders-frontier.md`. The gain it reports is the exact change
+//! of a move applied alone.
 //!
 //! # Candidates and batches
 //!
-//! Meister & Bittner select the candidates by a node cost; here it is the node's surface area
-//! (the area-weighted cost of a node is what a move can save: large nodes high in the tree
-//! first). Every iteration sorts the nodes by area (ties by index), takes a window of
-//! [`ReinsertConfig::batch_fraction`] of them, searches every candidate's best move in parallel
-//! (read-only, each a function of the tree alone), then accepts the moves in order of gain
-//! (ties by node index) as long as they are conflict free: a move locks `N`, `S`, `X`, the
-//! parents of `P` and `X`, and the paths from `N` and from `X` up to their lowest common
-//! ancestor; a move that touches a locked node waits for a later iteration. Disjoint locks keep
-//! the tree acyclic (a node can only be moved into a subtree whose root is on another move's
-//! path, which that move would have locked) and make the moves' pointer updates independent,
-//! so the accepted moves are applied one after the other in a fixed order and the boxes are
-//! refitted once. The windows walk down the area ranking, over the
-//! [`ReinsertConfig::pool_fraction`] largest nodes, and start again at the top.
+//! Meister & Bittner select the candidates by a node cost; here it is the node's weight, its
+//! surface area for the SAH (the area-weighted cost of a node is what a move can save: large
+//! nodes high in the tree first). Iteration `i` ranks the nodes by weight (ties by index),
+//! takes the top `batch_fraction / (1 + decay · i)` of them ([`ReinsertConfig::batch_fraction`],
+//! [`ReinsertConfig::decay`]: rounds over a shrinking fraction, as in Meister & Bittner's
+//! schedule), searches every candidate's best move in parallel (read-only, each a function of
+//! the tree alone), then accepts the moves in order of gain (ties by node index) as long as
+//! they are conflict free: a move locks `N`, `S`, `X`, the parents of `P` and `X`, and the
+//! paths from `N` and from `X` up to their lowest common ancestor; a move that touches a
+//! locked node waits for a later iteration. Disjoint locks keep the tree acyclic (a node can
+//! only be moved into a subtree whose root is on another move's path, which that move would
+//! have locked) and make the moves' pointer updates independent, so the accepted moves are
+//! applied one after the other in a fixed order and the boxes are refitted once.
 //!
 //! Moves applied together interact through their common ancestors' boxes, so a batch could in
 //! principle cost more than it saves: the batch is then undone and retried with its better
@@ -45,10 +46,18 @@
 //! and as a last guard the result is replaced by the input if its SAH (as
 //! [`sahara_metrics::sah`] computes it) is not lower or equal.
 //!
-//! The optimisation stops after [`ReinsertConfig::max_iterations`] iterations, or when a full
-//! round through the pool lowered the SAH by less than [`ReinsertConfig::min_round_gain`]
-//! (relative). Everything is a function of the tree: the result is the same for any number of
-//! rayon threads.
+//! The optimisation stops after [`ReinsertConfig::max_iterations`] iterations, or after an
+//! iteration whose relative gain fell below [`ReinsertConfig::min_gain`] times its batch's
+//! share of the first batch. Everything is a function of the tree: the result is the same for
+//! any number of rayon threads.
+//!
+//! # Other objectives
+//!
+//! Nothing in the search is specific to surface area: [`optimize_for`] lowers
+//! `Σ_inner w(box)` for any [`NodeWeight`] `w`, such as the fraction of a representative ray
+//! set's segments that meet a box (the ray-weighted SAH of `docs/metrics.md`). The weight is
+//! computed outside this crate (builders never see rays): `cargo xtask reinsert-rays` builds
+//! it from a training ray set with `sahara_metrics::SegmentSet`.
 //!
 //! # Use
 //!
@@ -75,9 +84,6 @@
 //! assert!(sah(&better, &input.cost) <= sah(&bvh, &input.cost));
 //! ```
 
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
-
 use rayon::prelude::*;
 use sahara_bvh::Node;
 use sahara_geom::Aabb;
@@ -92,17 +98,18 @@ use crate::{BuildError, BuildInput, Builder, Bvh, Configured, Strategy};
 /// `ploc+reinsert` uses.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ReinsertConfig {
-    /// Fraction of the nodes that are candidates in one iteration (in `(0, 1]`; at least 64
-    /// candidates are taken). Larger batches need fewer iterations but conflict more.
+    /// Candidates of the first iteration, as a fraction of the nodes (in `(0, 1]`; at least
+    /// 64 candidates are taken): the nodes of largest weight (surface area for the SAH).
     pub batch_fraction: f64,
-    /// Fraction of the nodes, the largest by area, that the candidate windows walk through
-    /// (in `(0, 1]`). The small nodes deep in the tree rarely find a better place.
-    pub pool_fraction: f64,
+    /// Iteration `i` (from 0) takes `batch_fraction / (1 + decay · i)` of the nodes (at least
+    /// 0): the rounds run over a shrinking top of the ranking, as in Meister & Bittner 2018.
+    pub decay: f64,
     /// At most this many iterations (batches); 0 returns the input's topology (refitted).
     pub max_iterations: usize,
-    /// Stop when a full round of windows through the pool lowered the SAH by less than this
-    /// fraction of the SAH at the round's start (at least 0).
-    pub min_round_gain: f64,
+    /// Stop after an iteration that lowered the objective by less than this fraction of it
+    /// (at least 0), scaled by the iteration's share of the first batch: with shrinking
+    /// batches the threshold shrinks with them.
+    pub min_gain: f64,
     /// At most this many nodes are visited by one candidate's search (0: no limit, the exact
     /// branch and bound). A limited search returns the best position among those it visited.
     pub max_search_nodes: usize,
@@ -117,18 +124,19 @@ impl Default for ReinsertConfig {
 impl ReinsertConfig {
     /// The default: the budget chosen for the `+reinsert` presets of the top-down builders.
     pub const THOROUGH: ReinsertConfig = ReinsertConfig {
-        batch_fraction: 0.02,
-        pool_fraction: 0.2,
+        batch_fraction: 0.3,
+        decay: 0.0,
         max_iterations: 100,
-        min_round_gain: 0.002,
+        min_gain: 0.0001,
         max_search_nodes: 0,
     };
-    /// A lighter budget (fewer iterations), for `ploc+reinsert`.
+    /// A lighter budget (a third of the candidates per iteration, fewer iterations), for
+    /// `ploc+reinsert`.
     pub const LIGHT: ReinsertConfig = ReinsertConfig {
-        batch_fraction: 0.02,
-        pool_fraction: 0.1,
-        max_iterations: 20,
-        min_round_gain: 0.005,
+        batch_fraction: 0.1,
+        decay: 0.0,
+        max_iterations: 30,
+        min_gain: 0.0002,
         max_search_nodes: 0,
     };
 
@@ -139,14 +147,14 @@ impl ReinsertConfig {
                 "reinsert: batch_fraction must be in (0, 1]".into(),
             ));
         }
-        if !frac(self.pool_fraction) {
+        if !(self.decay.is_finite() && self.decay >= 0.0) {
             return Err(BuildError::InvalidConfig(
-                "reinsert: pool_fraction must be in (0, 1]".into(),
+                "reinsert: decay must be finite and at least 0".into(),
             ));
         }
-        if !(self.min_round_gain.is_finite() && self.min_round_gain >= 0.0) {
+        if !(self.min_gain.is_finite() && self.min_gain >= 0.0) {
             return Err(BuildError::InvalidConfig(
-                "reinsert: min_round_gain must be finite and at least 0".into(),
+                "reinsert: min_gain must be finite and at least 0".into(),
             ));
         }
         Ok(())
@@ -154,14 +162,20 @@ impl ReinsertConfig {
 
     fn describe(&self) -> String {
         format!(
-            "reinsertion (batch {:.3}, pool {:.2}, ≤ {} iterations, stop below {:.4} per round, \
+            "reinsertion (batch {:.3}, decay {:.1}, ≤ {} iterations, stop below {:.4}, \
              search limit {})",
             self.batch_fraction,
-            self.pool_fraction,
+            self.decay,
             self.max_iterations,
-            self.min_round_gain,
+            self.min_gain,
             self.max_search_nodes
         )
+    }
+
+    /// The candidates of iteration `it` for a tree of `n` nodes.
+    fn batch(&self, it: usize, n: usize) -> usize {
+        let f = self.batch_fraction / (1.0 + self.decay * it as f64);
+        ((n as f64 * f).ceil() as usize).max(64).min(n)
     }
 }
 
@@ -185,12 +199,47 @@ pub enum ReinsertError {
 pub struct ReinsertStats {
     /// Iterations (batches) run.
     pub iterations: usize,
+    /// Candidates searched (over all iterations).
+    pub searches: usize,
     /// Moves applied.
     pub moves: usize,
-    /// SAH of the input (after refitting its inner boxes).
+    /// SAH of the input (after refitting its inner boxes); for [`optimize_for`], the
+    /// objective `Σ_inner w(box)` of the input.
     pub sah_before: f64,
-    /// SAH of the result.
+    /// SAH of the result; for [`optimize_for`], its objective.
     pub sah_after: f64,
+}
+
+/// The weight of a node's box in the objective that reinsertion lowers:
+/// `Σ_inner w(box(n))` (leaves never change). The SAH is [`SurfaceArea`]; any other weight
+/// (for instance the fraction of a ray set's segments that meet the box, computed outside
+/// the builders: builders never see rays) makes reinsertion lower that objective instead.
+///
+/// `weight` must be non-negative and should be monotone (a box inside another weighs no
+/// more): the search's pruning bound relies on it. A weight that is not monotone still never
+/// raises the objective (every batch is checked), the search is only no longer exact.
+pub trait NodeWeight: Sync {
+    /// The weight of a box.
+    fn weight(&self, b: &Aabb) -> f64;
+}
+
+/// The SAH's weight: half the surface area (in `f64`, as [`sahara_metrics::sah`] weighs
+/// nodes).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SurfaceArea;
+
+impl NodeWeight for SurfaceArea {
+    #[inline]
+    fn weight(&self, b: &Aabb) -> f64 {
+        area(b)
+    }
+}
+
+impl<F: Fn(&Aabb) -> f64 + Sync> NodeWeight for F {
+    #[inline]
+    fn weight(&self, b: &Aabb) -> f64 {
+        self(b)
+    }
 }
 
 /// Reinserts subtrees of `bvh` to lower its SAH under `cost` (see the module documentation).
@@ -215,18 +264,24 @@ pub fn optimize_with_stats(
         return Ok((bvh.clone(), ReinsertStats::default()));
     }
     // The structure is checked before anything walks the tree.
-    let mut tree = Tree::from_bvh(bvh)?;
+    let mut tree = Tree::from_bvh(bvh, &SurfaceArea)?;
     let before = sahara_metrics::sah(bvh, cost);
+    let unchanged = |stats: ReinsertStats| {
+        (
+            bvh.clone(),
+            ReinsertStats {
+                sah_before: before,
+                sah_after: before,
+                moves: 0,
+                ..stats
+            },
+        )
+    };
     if bvh.nodes.len() < 5 {
         // Fewer than three leaves: no move changes anything.
-        let stats = ReinsertStats {
-            sah_before: before,
-            sah_after: before,
-            ..Default::default()
-        };
-        return Ok((bvh.clone(), stats));
+        return Ok(unchanged(ReinsertStats::default()));
     }
-    let mut stats = tree.run(config);
+    let mut stats = tree.run(config, &SurfaceArea);
     let out = tree.to_bvh(bvh);
     let after = sahara_metrics::sah(&out, cost);
     // `after <= before` unless float noise in the sums says otherwise: keep the input then.
@@ -234,19 +289,70 @@ pub fn optimize_with_stats(
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     let worse = !(after <= before);
     if worse {
-        stats.sah_after = before;
-        stats.moves = 0;
-        return Ok((
-            bvh.clone(),
-            ReinsertStats {
-                sah_before: before,
-                ..stats
-            },
-        ));
+        return Ok(unchanged(stats));
     }
     stats.sah_before = before;
     stats.sah_after = after;
     Ok((out, stats))
+}
+
+/// Reinsertion that lowers `Σ_inner weight(box(n))` instead of the SAH (see [`NodeWeight`];
+/// with [`SurfaceArea`] it makes the same moves as [`optimize`]). The result has the same
+/// leaves, and its objective (as the stats report it, summed over the inner nodes in
+/// depth-first order) is at most the input's: otherwise the input is returned.
+pub fn optimize_for<W: NodeWeight>(
+    bvh: &Bvh,
+    weight: &W,
+    config: &ReinsertConfig,
+) -> Result<(Bvh, ReinsertStats), ReinsertError> {
+    config.check()?;
+    if bvh.nodes.is_empty() {
+        return Ok((bvh.clone(), ReinsertStats::default()));
+    }
+    let mut tree = Tree::from_bvh(bvh, weight)?;
+    let before = objective(bvh, weight);
+    let unchanged = |stats: ReinsertStats| {
+        (
+            bvh.clone(),
+            ReinsertStats {
+                sah_before: before,
+                sah_after: before,
+                moves: 0,
+                ..stats
+            },
+        )
+    };
+    if bvh.nodes.len() < 5 {
+        return Ok(unchanged(ReinsertStats::default()));
+    }
+    let mut stats = tree.run(config, weight);
+    let out = tree.to_bvh(bvh);
+    let after = objective(&out, weight);
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    let worse = !(after <= before);
+    if worse {
+        return Ok(unchanged(stats));
+    }
+    stats.sah_before = before;
+    stats.sah_after = after;
+    Ok((out, stats))
+}
+
+/// The objective of [`optimize_for`]: `Σ_inner weight(box(n))` over `bvh`'s inner nodes, in
+/// depth-first order.
+pub fn objective<W: NodeWeight>(bvh: &Bvh, weight: &W) -> f64 {
+    let w: Vec<f64> = bvh
+        .nodes
+        .par_iter()
+        .map(|n| {
+            if n.is_leaf() {
+                0.0
+            } else {
+                weight.weight(&n.bounds())
+            }
+        })
+        .collect();
+    w.iter().sum()
 }
 
 const NONE: u32 = u32::MAX;
@@ -264,7 +370,7 @@ fn area(b: &Aabb) -> f64 {
     x * y + y * z + z * x
 }
 
-/// A best move found for a candidate: put `node` next to `target`, lowering the inner-area sum
+/// A best move found for a candidate: put `node` next to `target`, lowering the objective
 /// by `gain`.
 #[derive(Clone, Copy, Debug)]
 struct Move {
@@ -273,10 +379,12 @@ struct Move {
     gain: f64,
 }
 
-/// The tree with parent pointers, in which moves are pointer updates.
+/// The tree with parent pointers, in which moves are pointer updates, and the weight of
+/// every node's box.
 #[derive(Clone)]
 struct Tree {
     boxes: Vec<Aabb>,
+    weights: Vec<f64>,
     parent: Vec<u32>,
     /// Children of inner nodes (`NONE` for leaves).
     left: Vec<u32>,
@@ -284,40 +392,19 @@ struct Tree {
     root: u32,
 }
 
-/// A search queue entry: a node of the tree without the candidate, its induced cost, and its
-/// place on the path from the root to the candidate's grandparent (`NONE` off the path).
-#[derive(Clone, Copy)]
-struct QItem {
-    induced: f64,
-    node: u32,
-    path: u32,
-}
-
-impl PartialEq for QItem {
-    fn eq(&self, o: &Self) -> bool {
-        self.cmp(o) == Ordering::Equal
-    }
-}
-impl Eq for QItem {}
-impl PartialOrd for QItem {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for QItem {
-    /// Reversed (the heap pops the smallest induced cost first), ties by node index.
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.induced
-            .total_cmp(&self.induced)
-            .then_with(|| o.node.cmp(&self.node))
-    }
+/// The best target of a search so far.
+struct Found {
+    gain: f64,
+    target: u32,
+    visits: usize,
 }
 
 impl Tree {
-    fn from_bvh(bvh: &Bvh) -> Result<Self, ReinsertError> {
+    fn from_bvh<W: NodeWeight>(bvh: &Bvh, w: &W) -> Result<Self, ReinsertError> {
         let n = bvh.nodes.len();
         let mut t = Tree {
             boxes: bvh.nodes.iter().map(Node::bounds).collect(),
+            weights: vec![0.0; n],
             parent: vec![NONE; n],
             left: vec![NONE; n],
             right: vec![NONE; n],
@@ -348,7 +435,9 @@ impl Tree {
             return Err(ReinsertError::MalformedTree { node: i });
         }
         // Every node but the root has one parent that comes before it: a tree.
-        t.refit(&t.preorder());
+        let order = t.preorder();
+        t.refit(&order);
+        t.weights = t.boxes.par_iter().map(|b| w.weight(b)).collect();
         Ok(t)
     }
 
@@ -369,23 +458,42 @@ impl Tree {
         order
     }
 
-    /// Recomputes the inner boxes bottom-up (leaves keep theirs).
-    fn refit(&mut self, order: &[u32]) {
+    /// Recomputes the inner boxes bottom-up (leaves keep theirs); returns the inner nodes
+    /// whose box changed.
+    fn refit(&mut self, order: &[u32]) -> Vec<u32> {
+        let mut changed = Vec::new();
         for &i in order.iter().rev() {
-            let i = i as usize;
-            if self.left[i] != NONE {
-                self.boxes[i] =
-                    self.boxes[self.left[i] as usize].union(&self.boxes[self.right[i] as usize]);
+            let iu = i as usize;
+            if self.left[iu] != NONE {
+                let b =
+                    self.boxes[self.left[iu] as usize].union(&self.boxes[self.right[iu] as usize]);
+                if b != self.boxes[iu] {
+                    self.boxes[iu] = b;
+                    changed.push(i);
+                }
             }
+        }
+        changed
+    }
+
+    /// Refits and updates the weights of the boxes that changed.
+    fn refit_weighted<W: NodeWeight>(&mut self, order: &[u32], w: &W) {
+        let changed = self.refit(order);
+        let new: Vec<f64> = changed
+            .par_iter()
+            .map(|&i| w.weight(&self.boxes[i as usize]))
+            .collect();
+        for (i, v) in changed.into_iter().zip(new) {
+            self.weights[i as usize] = v;
         }
     }
 
-    /// Σ of the inner nodes' areas, in preorder.
-    fn inner_area(&self, order: &[u32]) -> f64 {
+    /// Σ of the inner nodes' weights, in preorder.
+    fn inner_weight(&self, order: &[u32]) -> f64 {
         order
             .iter()
             .filter(|&&i| !self.is_leaf(i))
-            .map(|&i| area(&self.boxes[i as usize]))
+            .map(|&i| self.weights[i as usize])
             .sum()
     }
 
@@ -408,19 +516,35 @@ impl Tree {
         }
     }
 
-    /// The best move of `n` in the current tree (if any lowers the cost).
-    fn best_move(&self, n: u32, eps: f64, limit: usize, scratch: &mut Scratch) -> Option<Move> {
+    /// The best move of `n` in the current tree (if any lowers the cost by more than `eps`).
+    ///
+    /// The search starts where `N` is and climbs: with `A_1, A_2, …` the ancestors of `P`
+    /// and `A'` their boxes without `N`, a target `X` in the subtree of `O_k` (the child of
+    /// `A_k` off the path; `O_0 = S`) gains `D_k − w(X ∪ N) − Σ (w(a ∪ N) − w(a))` over its
+    /// ancestors `a` inside that subtree, where `D_k = w(P) + Σ_{j<k} (w(A_j) − w(A'_j))`
+    /// (the ancestors from `A_k` up contain `N` again, so their terms cancel), and the
+    /// ancestor `A'_k` itself gains `D_{k+1} − w(A_k)`. Each subtree is searched depth first,
+    /// pruned when `D_k` minus the induced cost minus `w(N)` cannot beat the best gain so far,
+    /// and the climb stops once no `D` left (at most the whole removal gain) can.
+    fn best_move<W: NodeWeight>(
+        &self,
+        n: u32,
+        eps: f64,
+        limit: usize,
+        w: &W,
+        scratch: &mut Scratch,
+    ) -> Option<Move> {
         let p = self.parent[n as usize];
         if p == NONE {
             return None;
         }
         let s = self.sibling(n);
         let bn = self.boxes[n as usize];
-        let an = area(&bn);
-        // The ancestors of P with their boxes without N, bottom-up, then reversed.
+        let an = self.weights[n as usize];
+        // The ancestors of P with the weights of their boxes without N, bottom-up.
         let path = &mut scratch.path;
         path.clear();
-        let mut removal = area(&self.boxes[p as usize]);
+        let mut removal = self.weights[p as usize];
         let mut child = p;
         let mut b = self.boxes[s as usize];
         let mut a = self.parent[p as usize];
@@ -431,103 +555,90 @@ impl Tree {
                 self.left[a as usize]
             };
             b = b.union(&self.boxes[other as usize]);
-            removal += area(&self.boxes[a as usize]) - area(&b);
-            path.push((a, b));
+            let wb = if b == self.boxes[a as usize] {
+                self.weights[a as usize]
+            } else {
+                w.weight(&b)
+            };
+            removal += self.weights[a as usize] - wb;
+            path.push((a, other, wb));
             child = a;
             a = self.parent[a as usize];
         }
-        path.reverse();
-        // Branch and bound over the tree without N.
-        let heap = &mut scratch.heap;
-        heap.clear();
-        heap.push(if path.is_empty() {
-            QItem {
-                induced: 0.0,
-                node: s,
-                path: NONE,
-            }
-        } else {
-            QItem {
-                induced: 0.0,
-                node: path[0].0,
-                path: 0,
-            }
-        });
-        let mut best = removal - eps;
-        let mut best_x = NONE;
-        let mut visits = 0usize;
-        while let Some(QItem {
-            induced,
-            node: x,
-            path: k,
-        }) = heap.pop()
-        {
-            if induced + an >= best || visits == limit {
+        let mut found = Found {
+            gain: eps,
+            target: NONE,
+            visits: 0,
+        };
+        let stack = &mut scratch.stack;
+        let mut d = self.weights[p as usize];
+        self.search_subtree(s, d, &bn, an, limit, w, stack, &mut found);
+        for &(anc, other, wb) in path.iter() {
+            if found.gain >= removal - an || found.visits >= limit {
                 break;
             }
-            visits += 1;
-            let bx = if k == NONE {
-                self.boxes[x as usize]
-            } else {
-                path[k as usize].1
-            };
-            let u = area(&bx.union(&bn));
-            if induced + u < best {
-                best = induced + u;
-                best_x = x;
+            self.search_subtree(other, d, &bn, an, limit, w, stack, &mut found);
+            d += self.weights[anc as usize] - wb;
+            // The ancestor without N as the target: N joins it under a new parent.
+            let gain = d - self.weights[anc as usize];
+            if gain > found.gain {
+                found.gain = gain;
+                found.target = anc;
+            }
+        }
+        let best = found.gain;
+        let best_x = found.target;
+        (best_x != NONE).then_some(Move {
+            node: n,
+            target: best_x,
+            gain: best,
+        })
+    }
+    /// Depth-first search of the subtree of `sub` for targets that gain more than
+    /// `found.gain`, the targets gaining `d − induced − w(X ∪ N)` (see [`Tree::best_move`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn search_subtree<W: NodeWeight>(
+        &self,
+        sub: u32,
+        d: f64,
+        bn: &Aabb,
+        an: f64,
+        limit: usize,
+        w: &W,
+        stack: &mut Vec<(u32, f64)>,
+        found: &mut Found,
+    ) {
+        if d - an <= found.gain {
+            return;
+        }
+        stack.clear();
+        stack.push((sub, 0.0f64));
+        while let Some((x, induced)) = stack.pop() {
+            if d - induced - an <= found.gain {
+                continue;
+            }
+            if found.visits >= limit {
+                return;
+            }
+            found.visits += 1;
+            let (bx, wx) = (self.boxes[x as usize], self.weights[x as usize]);
+            let ub = bx.union(bn);
+            let u = if ub == bx { wx } else { w.weight(&ub) };
+            let gain = d - induced - u;
+            if gain > found.gain {
+                found.gain = gain;
+                found.target = x;
             }
             if self.is_leaf(x) {
                 continue;
             }
-            let below = induced + u - area(&bx);
-            if below + an >= best {
-                continue;
+            let below = induced + u - wx;
+            if d - below - an > found.gain {
+                stack.push((self.right[x as usize], below));
+                stack.push((self.left[x as usize], below));
             }
-            let (l, r) = (self.left[x as usize], self.right[x as usize]);
-            if k == NONE {
-                heap.push(QItem {
-                    induced: below,
-                    node: l,
-                    path: NONE,
-                });
-                heap.push(QItem {
-                    induced: below,
-                    node: r,
-                    path: NONE,
-                });
-                continue;
-            }
-            // On the path: one child is the next path node (or P, which S replaces).
-            let next = if (k as usize) + 1 < path.len() {
-                path[k as usize + 1].0
-            } else {
-                p
-            };
-            let other = if l == next { r } else { l };
-            heap.push(QItem {
-                induced: below,
-                node: other,
-                path: NONE,
-            });
-            heap.push(if next == p {
-                QItem {
-                    induced: below,
-                    node: s,
-                    path: NONE,
-                }
-            } else {
-                QItem {
-                    induced: below,
-                    node: next,
-                    path: k + 1,
-                }
-            });
         }
-        (best_x != NONE).then_some(Move {
-            node: n,
-            target: best_x,
-            gain: removal - best,
-        })
     }
 
     /// Locks the nodes a move touches (see the module documentation); false (and nothing
@@ -593,95 +704,101 @@ impl Tree {
         }
     }
 
-    fn run(&mut self, config: &ReinsertConfig) -> ReinsertStats {
+    fn run<W: NodeWeight>(&mut self, config: &ReinsertConfig, w: &W) -> ReinsertStats {
         let n = self.boxes.len();
-        let batch = ((n as f64 * config.batch_fraction).ceil() as usize)
-            .max(64)
-            .min(n);
-        let pool = ((n as f64 * config.pool_fraction).ceil() as usize)
-            .max(batch)
-            .min(n);
-        let windows = pool.div_ceil(batch);
         let mut order = self.preorder();
-        let mut cost = self.inner_area(&order);
-        let eps = 1e-10 * area(&self.boxes[self.root as usize]);
+        let mut cost = self.inner_weight(&order);
+        let eps = 1e-10 * self.weights[self.root as usize];
         let mut stats = ReinsertStats::default();
         let mut locks = vec![0u32; n];
         let mut depth = vec![0u32; n];
         let mut lock_nodes = Vec::new();
-        let mut round_start = cost;
         let mut ranked: Vec<(f64, u32)> = Vec::with_capacity(n);
         let limit = if config.max_search_nodes == 0 {
             usize::MAX
         } else {
             config.max_search_nodes
         };
+        let first = config.batch(0, n);
+        let trace = std::env::var_os("SAHARA_REINSERT_TRACE").is_some();
         for it in 0..config.max_iterations {
-            let window = it % windows;
-            if window == 0 && it > 0 {
-                if round_start - cost < config.min_round_gain * round_start {
-                    break;
-                }
-                round_start = cost;
-            }
+            let t0 = std::time::Instant::now();
+            let batch = config.batch(it, n);
             stats.iterations += 1;
-            // Candidates: the window of the area ranking (largest first, ties by index).
+            // Candidates: the top of the weight ranking (largest first, ties by index).
             ranked.clear();
             ranked.extend(
                 order
                     .iter()
                     .filter(|&&i| i != self.root)
-                    .map(|&i| (area(&self.boxes[i as usize]), i)),
+                    .map(|&i| (self.weights[i as usize], i)),
             );
             let cmp = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
-            let hi = ((window + 1) * batch).min(ranked.len());
-            let lo = (window * batch).min(hi);
+            let hi = batch.min(ranked.len());
             if hi < ranked.len() {
                 ranked.select_nth_unstable_by(hi, cmp);
             }
             ranked[..hi].sort_unstable_by(cmp);
+            stats.searches += hi;
             let tree = &*self;
-            let mut moves: Vec<Move> = ranked[lo..hi]
+            let mut moves: Vec<Move> = ranked[..hi]
                 .par_iter()
                 .map_init(Scratch::default, |s, &(_, c)| {
-                    tree.best_move(c, eps, limit, s)
+                    tree.best_move(c, eps, limit, w, s)
                 })
                 .flatten()
                 .collect();
-            if moves.is_empty() {
-                continue;
+            let t_search = t0.elapsed().as_secs_f64();
+            let start = cost;
+            let (found, mut took, mut applied) = (moves.len(), 0usize, 0usize);
+            if !moves.is_empty() {
+                moves.sort_unstable_by(|a, b| b.gain.total_cmp(&a.gain).then(a.node.cmp(&b.node)));
+                for &i in &order {
+                    let p = self.parent[i as usize];
+                    depth[i as usize] = if p == NONE { 0 } else { depth[p as usize] + 1 };
+                }
+                let stamp = it as u32 + 1;
+                let accepted: Vec<Move> = moves
+                    .into_iter()
+                    .filter(|m| self.lock(m, &depth, &mut locks, stamp, &mut lock_nodes))
+                    .collect();
+                // Apply; undo and halve while the batch costs more than it saves.
+                let mut k = accepted.len();
+                took = k;
+                let saved = self.clone();
+                loop {
+                    for m in &accepted[..k] {
+                        self.apply(m);
+                    }
+                    let new_order = self.preorder();
+                    self.refit_weighted(&new_order, w);
+                    let new_cost = self.inner_weight(&new_order);
+                    if new_cost <= cost {
+                        order = new_order;
+                        cost = new_cost;
+                        stats.moves += k;
+                        applied = k;
+                        break;
+                    }
+                    *self = saved.clone();
+                    if k == 1 {
+                        break;
+                    }
+                    k /= 2;
+                }
             }
-            moves.sort_unstable_by(|a, b| b.gain.total_cmp(&a.gain).then(a.node.cmp(&b.node)));
-            for &i in &order {
-                let p = self.parent[i as usize];
-                depth[i as usize] = if p == NONE { 0 } else { depth[p as usize] + 1 };
+            let gain = (start - cost) / start.max(f64::MIN_POSITIVE);
+            if trace {
+                eprintln!(
+                    "reinsert it {it}: {hi} candidates, {found} found, {took} conflict-free, {applied} applied, gain {:.5}%, search {:.3} s, total {:.3} s",
+                    100.0 * gain,
+                    t_search,
+                    t0.elapsed().as_secs_f64()
+                );
             }
-            let stamp = it as u32 + 1;
-            let accepted: Vec<Move> = moves
-                .into_iter()
-                .filter(|m| self.lock(m, &depth, &mut locks, stamp, &mut lock_nodes))
-                .collect();
-            // Apply; undo and halve while the batch costs more than it saves.
-            let mut k = accepted.len();
-            let saved = self.clone();
-            loop {
-                for m in &accepted[..k] {
-                    self.apply(m);
-                }
-                let new_order = self.preorder();
-                self.refit(&new_order);
-                let new_cost = self.inner_area(&new_order);
-                if new_cost <= cost {
-                    order = new_order;
-                    cost = new_cost;
-                    stats.moves += k;
-                    break;
-                }
-                *self = saved.clone();
-                if k == 1 {
-                    break;
-                }
-                k /= 2;
+            // Stop when the iteration gained less than its share of the threshold.
+            if gain < config.min_gain * batch as f64 / first as f64 {
+                break;
             }
         }
         stats
@@ -719,8 +836,9 @@ impl Tree {
 /// Per-worker buffers of the search.
 #[derive(Default)]
 struct Scratch {
-    path: Vec<(u32, Aabb)>,
-    heap: BinaryHeap<QItem>,
+    /// The ancestors of P: (ancestor, its child off the path, weight of its box without N).
+    path: Vec<(u32, u32, f64)>,
+    stack: Vec<(u32, f64)>,
 }
 
 /// A builder's configuration followed by reinsertion: `Configured<Reinsert<C>>` is a

@@ -43,7 +43,7 @@ pub use predictor::{
 pub use sah::{sah, sah_of_subtree};
 pub use weighted::{
     camera_box_weight, closest_hits, node_weights, primary_ray_metrics, segment_node_weights,
-    weighted_sah, weighted_sah_from_node_weights, CameraGrid, Hit, PrimaryRayMetrics,
+    weighted_sah, weighted_sah_from_node_weights, CameraGrid, Hit, PrimaryRayMetrics, SegmentSet,
 };
 
 /// The README's examples, compiled and run as doctests.

@@ -438,3 +438,151 @@ pub fn primary_ray_metrics(
         hits: endpoints.len(),
     }
 }
+
+/// Rays per cluster of a [`SegmentSet`].
+const SEGMENT_CLUSTER: usize = 32;
+
+/// A fixed set of ray segments (each ray's `[tmin, tmax]`, clipped to a scene box) that counts,
+/// for **any** box, how many of them meet it: the visit count of [`segment_node_weights`]
+/// for boxes that are not (yet) nodes of a tree, such as the candidate boxes of an
+/// optimiser. With `tmax` cut at each ray's closest hit, `count(b) / len()` is the
+/// occlusion-aware probability that a closest-hit traversal tests a node with box `b`, the
+/// weight of the ray-weighted SAH (`docs/metrics.md`).
+///
+/// The count is monotone in the box (a box inside another meets no more segments), as
+/// branch-and-bound searches over it need: it is a plain slab test (`f32::min`/`max`, which
+/// ignore the NaN of a zero direction component on a slab's plane) on segments sorted into
+/// clusters of 32 along a Morton curve of their midpoints, a cluster skipped when its
+/// segments' bounding box misses the box. Deterministic: integer counts.
+#[derive(Clone, Debug, Default)]
+pub struct SegmentSet {
+    /// Per cluster: the bounds of its segments and its first segment (the next cluster's
+    /// first, or `len`, ends it).
+    clusters: Vec<(Aabb, u32)>,
+    origin: [Vec<f32>; 3],
+    inv: [Vec<f32>; 3],
+    t0: Vec<f32>,
+    t1: Vec<f32>,
+}
+
+impl SegmentSet {
+    /// The segments of the valid `rays` ([`Ray::is_valid`]) that meet `bounds`, clipped to it
+    /// (rays missing `bounds` are dropped: they meet no box inside it).
+    pub fn new(rays: &[Ray], bounds: &Aabb) -> Self {
+        let mut segs: Vec<(u64, Ray, f32, f32, Aabb)> = rays
+            .iter()
+            .filter(|r| r.is_valid())
+            .filter_map(|r| {
+                let tmin = r.tmin.max(0.0);
+                let t = slab(r.origin, r.inv_direction, tmin, r.tmax, bounds)?;
+                let (a, b) = (r.at(t.0), r.at(t.1));
+                let seg = Aabb::new(a.min(b), a.max(b));
+                Some((0, *r, t.0, t.1, seg))
+            })
+            .collect();
+        let ext = bounds.extent().max(Vec3A::splat(f32::MIN_POSITIVE));
+        for s in &mut segs {
+            let c = ((s.4.centroid() - bounds.min) / ext).clamp(Vec3A::ZERO, Vec3A::ONE);
+            s.0 = morton3((c * 1023.0).as_uvec3().to_array());
+        }
+        // Stable: equal codes keep the rays' order.
+        segs.sort_by_key(|s| s.0);
+        let pad = 1e-5 * ext.max_element();
+        let mut out = SegmentSet::default();
+        for (k, chunk) in segs.chunks(SEGMENT_CLUSTER).enumerate() {
+            let b = chunk.iter().fold(Aabb::EMPTY, |b, s| b.union(&s.4));
+            let b = Aabb::new(b.min - Vec3A::splat(pad), b.max + Vec3A::splat(pad));
+            out.clusters.push((b, (k * SEGMENT_CLUSTER) as u32));
+            for (_, r, t0, t1, _) in chunk {
+                for a in 0..3 {
+                    out.origin[a].push(r.origin[a]);
+                    out.inv[a].push(r.inv_direction[a]);
+                }
+                out.t0.push(*t0);
+                out.t1.push(*t1);
+            }
+        }
+        out
+    }
+
+    /// Number of segments kept.
+    pub fn len(&self) -> usize {
+        self.t0.len()
+    }
+
+    /// True when no segment was kept.
+    pub fn is_empty(&self) -> bool {
+        self.t0.is_empty()
+    }
+
+    /// How many segments meet `b` (0 for an empty box).
+    pub fn count(&self, b: &Aabb) -> u32 {
+        if b.is_empty() {
+            return 0;
+        }
+        let mut n = 0u32;
+        for (k, (cb, first)) in self.clusters.iter().enumerate() {
+            if !cb.overlaps(b) {
+                continue;
+            }
+            let end = self
+                .clusters
+                .get(k + 1)
+                .map_or(self.t0.len(), |c| c.1 as usize);
+            n += self.count_range(*first as usize..end, b);
+        }
+        n
+    }
+
+    /// `count(b) / len()` (0 when empty).
+    pub fn fraction(&self, b: &Aabb) -> f64 {
+        if self.is_empty() {
+            0.0
+        } else {
+            self.count(b) as f64 / self.len() as f64
+        }
+    }
+
+    #[inline]
+    fn count_range(&self, r: std::ops::Range<usize>, b: &Aabb) -> u32 {
+        let (lo, hi) = (b.min.to_array(), b.max.to_array());
+        let [ox, oy, oz] = &self.origin;
+        let [ix, iy, iz] = &self.inv;
+        let (ox, oy, oz) = (&ox[r.clone()], &oy[r.clone()], &oz[r.clone()]);
+        let (ix, iy, iz) = (&ix[r.clone()], &iy[r.clone()], &iz[r.clone()]);
+        let (t0, t1) = (&self.t0[r.clone()], &self.t1[r]);
+        let mut n = 0u32;
+        for i in 0..t0.len() {
+            let (ax, bx) = ((lo[0] - ox[i]) * ix[i], (hi[0] - ox[i]) * ix[i]);
+            let (ay, by) = ((lo[1] - oy[i]) * iy[i], (hi[1] - oy[i]) * iy[i]);
+            let (az, bz) = ((lo[2] - oz[i]) * iz[i], (hi[2] - oz[i]) * iz[i]);
+            let near = t0[i].max(ax.min(bx)).max(ay.min(by)).max(az.min(bz));
+            let far = t1[i].min(ax.max(bx)).min(ay.max(by)).min(az.max(bz));
+            n += (near <= far) as u32;
+        }
+        n
+    }
+}
+
+/// The part `[near, far]` of `[tmin, tmax]` inside `b` (plain slab test), if any.
+fn slab(o: Vec3A, inv: Vec3A, tmin: f32, tmax: f32, b: &Aabb) -> Option<(f32, f32)> {
+    let a = (b.min - o) * inv;
+    let c = (b.max - o) * inv;
+    let (lo, hi) = (a.min(c), a.max(c));
+    let near = tmin.max(lo.x).max(lo.y).max(lo.z);
+    let far = tmax.min(hi.x).min(hi.y).min(hi.z);
+    (near <= far && far.is_finite()).then_some((near, far))
+}
+
+/// Interleaves three 10-bit coordinates into a 30-bit Morton code.
+fn morton3(c: [u32; 3]) -> u64 {
+    let spread = |v: u32| {
+        let mut x = (v & 0x3ff) as u64;
+        x = (x | (x << 16)) & 0x0300_00ff;
+        x = (x | (x << 8)) & 0x0300_f00f;
+        x = (x | (x << 4)) & 0x030c_30c3;
+        x = (x | (x << 2)) & 0x0924_9249;
+        x
+    };
+    spread(c[0]) | (spread(c[1]) << 1) | (spread(c[2]) << 2)
+}
