@@ -44,7 +44,7 @@ pub struct Args {
     /// hairball, city and teapot_stadium; quick: the procedural ones at 20k/10k triangles).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
-    /// Factors to run (default all): cost, leaf, breadth, where, temporary, camera.
+    /// Factors to run (default all): cost, leaf, breadth, where, temporary, camera, reinsert.
     #[arg(long, value_delimiter = ',')]
     pub factors: Vec<String>,
     /// Also measure speed (bvh2 and bvh8) against the reference, interleaved rounds.
@@ -78,7 +78,15 @@ pub struct Args {
 }
 
 /// The factors, in report order.
-pub const FACTORS: &[&str] = &["cost", "leaf", "breadth", "where", "temporary", "camera"];
+pub const FACTORS: &[&str] = &[
+    "cost",
+    "leaf",
+    "breadth",
+    "where",
+    "temporary",
+    "camera",
+    "reinsert",
+];
 
 /// The camera a setting's rays come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -384,6 +392,41 @@ fn settings(factor: &str, quick: bool) -> Result<Vec<Setting>> {
                         ..base("camera", name, format!("{} camera", camera.name()))
                     });
                 }
+            }
+        }
+        "reinsert" => {
+            // The paper's builders against the post-pass optimisers of issue 16, each against
+            // the reference its builder starts from: the registered presets, so that the rows
+            // are the trees `cargo xtask eval` and `cargo xtask bvh` build.
+            let sweep = Reference::Sweep { max_leaf: 8 };
+            let mut presets: Vec<(&'static str, Reference, &'static str)> = vec![
+                ("tsah-topk", sweep, "temporary subtrees, no reinsertion"),
+                ("sweep+reinsert", sweep, "reinsertion after sweep"),
+                ("ploc+reinsert", sweep, "PLOC, then the light reinsertion"),
+            ];
+            if !quick {
+                presets.extend([
+                    ("tsah-topk+reinsert", sweep, "reinsertion after tsah-topk"),
+                    ("ploc", sweep, "PLOC, no reinsertion"),
+                    (
+                        "tsah-sbvh",
+                        Reference::Sbvh,
+                        "spatial temporaries, no reinsertion",
+                    ),
+                    ("sbvh+reinsert", Reference::Sbvh, "reinsertion after sbvh"),
+                ]);
+            }
+            for (name, reference, level) in presets {
+                if sahara_builders::registry::by_name(name).is_none() {
+                    bail!("the reinsert factor needs the registered preset '{name}'");
+                }
+                v.push(Setting {
+                    reference,
+                    make: Box::new(move |_| {
+                        sahara_builders::registry::by_name(name).expect("checked above")
+                    }),
+                    ..base("reinsert", name, level.into())
+                });
             }
         }
         other => bail!("unknown factor '{other}' (known: {})", FACTORS.join(", ")),

@@ -17,7 +17,8 @@
 //!    pair up as `(0, 1), (2, 3), …` instead of one pair per iteration.
 //! 3. **Merge and compaction.** Mutual nearest neighbours `i < j` merge into a new inner node
 //!    that takes position `i`; position `j` disappears; the list keeps its order. The
-//!    neighbour search runs in parallel (rayon); merging and compaction are a linear pass.
+//!    neighbour search runs in parallel (rayon) over chunks of the list, each pair's area
+//!    computed once for both of its clusters; merging and compaction are a linear pass.
 //!
 //! The clustering makes a binary tree with one primitive per leaf. **Leaves** are then made by
 //! SAH cost, bottom-up: a subtree of at most [`PlocConfig::max_leaf_size`] primitives becomes
@@ -39,7 +40,7 @@ use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 /// Configuration of the PLOC builder.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct PlocConfig {
-    /// Search radius `r` of the nearest-neighbour search (at least 1): each cluster compares
+    /// Search radius `r` of the nearest-neighbour search (1 to [`MAX_RADIUS`]): each cluster compares
     /// itself with the `r` clusters before and after it in Morton order. Default 16 (Meister &
     /// Bittner's recommendation, confirmed by measurements, see `docs/builders-frontier.md`).
     pub radius: usize,
@@ -66,10 +67,10 @@ impl Strategy for PlocConfig {
     const NAME: &'static str = "ploc";
 
     fn check(&self) -> Result<(), BuildError> {
-        if self.radius == 0 {
-            return Err(BuildError::InvalidConfig(
-                "ploc: radius must be at least 1".into(),
-            ));
+        if self.radius == 0 || self.radius > MAX_RADIUS {
+            return Err(BuildError::InvalidConfig(format!(
+                "ploc: radius must be in 1..={MAX_RADIUS}"
+            )));
         }
         if self.max_leaf_size == 0 {
             return Err(BuildError::InvalidConfig(
@@ -166,22 +167,6 @@ fn morton_order(centroids: &[Vec3A]) -> Vec<u32> {
     keys.into_iter().map(|(_, i)| i).collect()
 }
 
-/// The pair order of the neighbour search: a function of the unordered pair `{i, j}`.
-#[inline]
-fn pair_key(area: f32, i: usize, j: usize) -> (f32, usize, usize, usize) {
-    let (lo, hi) = if i < j { (i, j) } else { (j, i) };
-    (area, hi - lo, lo & 1, lo)
-}
-
-#[inline]
-fn less(a: (f32, usize, usize, usize), b: (f32, usize, usize, usize)) -> bool {
-    match a.0.total_cmp(&b.0) {
-        std::cmp::Ordering::Less => true,
-        std::cmp::Ordering::Greater => false,
-        std::cmp::Ordering::Equal => (a.1, a.2, a.3) < (b.1, b.2, b.3),
-    }
-}
-
 fn build(input: &BuildInput, config: &PlocConfig) -> Bvh {
     let n = input.len();
     let bounds = input.bounds();
@@ -199,28 +184,7 @@ fn build(input: &BuildInput, config: &PlocConfig) -> Bvh {
     let mut next_boxes = Vec::with_capacity(n);
     while clusters.len() > 1 {
         let m = clusters.len();
-        let nn: Vec<usize> = (0..m)
-            .into_par_iter()
-            .with_min_len(1024)
-            .map(|i| {
-                let b = cboxes[i];
-                let mut best = (f32::INFINITY, usize::MAX, 0, 0);
-                let mut best_j = usize::MAX;
-                let lo = i.saturating_sub(r);
-                let hi = (i + r + 1).min(m);
-                for (j, other) in cboxes.iter().enumerate().take(hi).skip(lo) {
-                    if j == i {
-                        continue;
-                    }
-                    let k = pair_key(b.union(other).half_area(), i, j);
-                    if best_j == usize::MAX || less(k, best) {
-                        best = k;
-                        best_j = j;
-                    }
-                }
-                best_j
-            })
-            .collect();
+        let nn = nearest_neighbours(&cboxes, r);
         next_clusters.clear();
         next_boxes.clear();
         for i in 0..m {
@@ -244,6 +208,94 @@ fn build(input: &BuildInput, config: &PlocConfig) -> Bvh {
     }
     let root = clusters[0] as usize;
     collapse(input, &boxes, &children, root, config.max_leaf_size)
+}
+
+/// Clusters per task of the neighbour search: the areas of a chunk's pairs stay in cache.
+const CHUNK: usize = 2048;
+
+/// The largest search radius: a candidate's offset must fit the packed key of
+/// [`candidate_key`].
+pub const MAX_RADIUS: usize = 1 << 20;
+
+/// An `f32` as a `u32` whose unsigned order is `f32::total_cmp`'s.
+#[inline]
+fn ordered_bits(a: f32) -> u32 {
+    let b = a.to_bits();
+    if b >> 31 == 1 {
+        !b
+    } else {
+        b | 0x8000_0000
+    }
+}
+
+/// The pair `{i, i - d}` (`below`) or `{i, i + d}` as seen from cluster `i`, packed into a
+/// `u64` whose order among `i`'s candidates is the order of the pair order (module docs, step 2): the area first
+/// (as `total_cmp`), then `d = hi - lo`, then the parity of the lower index, then the lower
+/// index itself, which among two pairs of `i` with the same `d` is the smaller for the pair
+/// below `i`. The candidate is decoded back by [`candidate_of`].
+#[inline]
+fn candidate_key(area_bits: u32, i: usize, d: usize, below: bool) -> u64 {
+    let lo = if below { i - d } else { i };
+    ((area_bits as u64) << 32) | ((d as u64) << 2) | (((lo & 1) as u64) << 1) | (!below as u64)
+}
+
+/// The neighbour of cluster `i` that a [`candidate_key`] stands for.
+#[inline]
+fn candidate_of(key: u64, i: usize) -> usize {
+    let d = ((key as u32) >> 2) as usize;
+    if key & 1 == 0 {
+        i - d
+    } else {
+        i + d
+    }
+}
+
+/// The nearest neighbour of every cluster of the list among the `r` on each side, by the
+/// pair order of the pair order (module docs, step 2). Each pair's merged area is computed once, from the lower
+/// index's side (`cboxes[i].union(&cboxes[j])`, `i < j`), and read by both clusters: half the
+/// box unions of a search from each side; the comparisons are of packed integer keys
+/// ([`candidate_key`]). The pair order is total on distinct pairs, so the order in which
+/// candidates are visited does not matter and the result is a function of the list alone,
+/// whatever the thread count.
+fn nearest_neighbours(cboxes: &[Aabb], r: usize) -> Vec<usize> {
+    debug_assert!((1..=MAX_RADIUS).contains(&r));
+    let m = cboxes.len();
+    let chunks: Vec<Vec<usize>> = (0..m.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let c0 = c * CHUNK;
+            let c1 = (c0 + CHUNK).min(m);
+            // areas[(i - s0) * r + d - 1]: the ordered bits of the area of the pair
+            // (i, i + d), for i in s0..c1 and d in 1..=r.
+            let s0 = c0.saturating_sub(r);
+            let mut areas = vec![u32::MAX; (c1 - s0) * r];
+            for i in s0..c1 {
+                let b = cboxes[i];
+                let row = &mut areas[(i - s0) * r..(i - s0 + 1) * r];
+                for (d, a) in (1..=r).zip(row.iter_mut()) {
+                    let Some(other) = cboxes.get(i + d) else {
+                        break;
+                    };
+                    *a = ordered_bits(b.union(other).half_area());
+                }
+            }
+            (c0..c1)
+                .map(|i| {
+                    let mut best = u64::MAX;
+                    for d in 1..=r.min(i) {
+                        let a = areas[(i - d - s0) * r + d - 1];
+                        best = best.min(candidate_key(a, i, d, true));
+                    }
+                    let row = &areas[(i - s0) * r..(i - s0) * r + r.min(m - 1 - i)];
+                    for (d, &a) in (1..).zip(row) {
+                        best = best.min(candidate_key(a, i, d, false));
+                    }
+                    candidate_of(best, i)
+                })
+                .collect()
+        })
+        .collect();
+    chunks.concat()
 }
 
 /// Area in `f64` (recomputed in `f64` when the `f32` product overflows).
@@ -331,6 +383,84 @@ fn collapse(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pair order of the neighbour search: a function of the unordered pair `{i, j}`.
+    #[inline]
+    fn pair_key(area: f32, i: usize, j: usize) -> (f32, usize, usize, usize) {
+        let (lo, hi) = if i < j { (i, j) } else { (j, i) };
+        (area, hi - lo, lo & 1, lo)
+    }
+
+    #[inline]
+    fn less(a: (f32, usize, usize, usize), b: (f32, usize, usize, usize)) -> bool {
+        match a.0.total_cmp(&b.0) {
+            std::cmp::Ordering::Less => true,
+            std::cmp::Ordering::Greater => false,
+            std::cmp::Ordering::Equal => (a.1, a.2, a.3) < (b.1, b.2, b.3),
+        }
+    }
+
+    /// The search of the first version: every cluster unions its box with each of its `2r`
+    /// neighbours' boxes itself.
+    fn nearest_naive(cboxes: &[Aabb], r: usize) -> Vec<usize> {
+        let m = cboxes.len();
+        (0..m)
+            .map(|i| {
+                let mut best = (f32::INFINITY, usize::MAX, 0, 0);
+                let mut best_j = usize::MAX;
+                for j in i.saturating_sub(r)..(i + r + 1).min(m) {
+                    if j == i {
+                        continue;
+                    }
+                    let k = pair_key(cboxes[i].union(&cboxes[j]).half_area(), i, j);
+                    if best_j == usize::MAX || less(k, best) {
+                        best = k;
+                        best_j = j;
+                    }
+                }
+                best_j
+            })
+            .collect()
+    }
+
+    #[test]
+    fn chunked_search_equals_the_search_from_both_sides() {
+        // Pseudo-random boxes, with runs of equal boxes (ties) and lists that cross chunk
+        // boundaries, for radii below and above the list lengths.
+        let mut x = 0x9e37_79b9_u32;
+        let mut rnd = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x % 1000) as f32 / 10.0
+        };
+        for (m, r) in [
+            (2, 1),
+            (5, 16),
+            (CHUNK + 7, 16),
+            (3 * CHUNK + 1, 4),
+            (5000, 1),
+        ] {
+            let boxes: Vec<Aabb> = (0..m)
+                .map(|i| {
+                    if i % 7 < 3 {
+                        Aabb::new(Vec3A::splat(1.0), Vec3A::splat(2.0))
+                    } else if i % 11 == 5 {
+                        // Points: pairs of zero area.
+                        Aabb::new(Vec3A::ZERO, Vec3A::ZERO)
+                    } else {
+                        let p = Vec3A::new(rnd(), rnd(), rnd());
+                        Aabb::new(p, p + Vec3A::new(rnd(), rnd(), rnd()))
+                    }
+                })
+                .collect();
+            assert_eq!(
+                nearest_neighbours(&boxes, r),
+                nearest_naive(&boxes, r),
+                "m {m}, r {r}"
+            );
+        }
+    }
 
     #[test]
     fn morton_interleaves() {

@@ -130,13 +130,14 @@ impl ReinsertConfig {
         min_gain: 0.0001,
         max_search_nodes: 0,
     };
-    /// A lighter budget (a third of the candidates per iteration, fewer iterations), for
-    /// `ploc+reinsert`.
+    /// A lighter budget (a tenth of the candidates per iteration, ten iterations), for
+    /// `ploc+reinsert`: chosen so that PLOC plus this pass stays within three times the sweep
+    /// builder's time on every shared scene (`docs/builders-frontier.md`).
     pub const LIGHT: ReinsertConfig = ReinsertConfig {
-        batch_fraction: 0.1,
+        batch_fraction: 0.03,
         decay: 0.0,
-        max_iterations: 30,
-        min_gain: 0.0002,
+        max_iterations: 10,
+        min_gain: 0.0005,
         max_search_nodes: 0,
     };
 
