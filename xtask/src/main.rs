@@ -8,6 +8,7 @@ mod bvh_cmd;
 mod embree;
 mod eval;
 mod hardcases;
+mod measure;
 #[cfg(feature = "obvhs")]
 mod obvhs;
 mod oracle_cmd;
@@ -63,11 +64,17 @@ enum Cmd {
     /// Every builder's tree on every scene file against its recorded fingerprint; every
     /// builder on every scene: validate, and traversal against brute force ray by ray;
     /// then every wide layout and backend against the scalar reference on primary, diffuse and
-    /// AO rays at 1024×768 (the heavy versions of the test suite's checks; takes minutes).
+    /// AO rays at 1024×768 (the heavy versions of the test suite's checks), and the heavy
+    /// checks the default suite ignores (takes minutes).
     Verify,
     /// The sensitivity study of the temporary-subtree builders (issue 15): one factor at a
     /// time against the sweep tree built under the same settings (`--quick`: ≤ 5 minutes).
     Study(study::Args),
+    /// The measurement harnesses whose figures the documents quote: builders against sweep
+    /// (`presets`, `knobs`, `dragon`, `configs`, `popov-configs`), `sbvh`, `tsah-spatial`, the
+    /// single-thread kernel benchmarks (`wide-bench`, `kernels`) and the exact oracle's speed
+    /// (`oracle`).
+    Measure(measure::Args),
     /// Reinsertion driven by the ray-weighted cost of a training ray set, against sweep and
     /// sweep+reinsert, measured on other rays (docs/builders-frontier.md, "Beyond SAH").
     ReinsertRays(reinsert_rays::Args),
@@ -90,6 +97,7 @@ fn main() {
         Cmd::Hardcases(a) => hardcases::run(a),
         Cmd::Oracle(a) => oracle_cmd::run(a),
         Cmd::Study(a) => study::run(a),
+        Cmd::Measure(a) => measure::run(a),
         Cmd::ReinsertRays(a) => reinsert_rays::run(a),
         Cmd::Package(a) => package_cmd::run(a),
     };
@@ -103,15 +111,15 @@ fn main() {
 /// (every registered builder's tree on every shared scene file against its recorded
 /// fingerprint), `builders` of sahara-traverse (every
 /// builder on every scene against brute force) and `layouts_shared_scenes` of sahara-trace
-/// (every layout and backend against the scalar reference, ray by ray, at 1024×768).
+/// (every layout and backend against the scalar reference, ray by ray, at 1024×768); then the
+/// heavy checks that are `#[ignore]`d in the default test suite because they take seconds to
+/// minutes each: `sweep` of sahara-builders (the sweep tree of a 1M-triangle soup against its
+/// cost-only twin), `procedural` of sahara-scene (every generator at up to 10^6 triangles) and
+/// `shared_scenes` of sahara-scene (every shared scene's triangle count and checksum).
 fn verify() -> anyhow::Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut failed = Vec::new();
-    for (package, test) in [
-        ("sahara-builders", "tree_hashes"),
-        ("sahara-traverse", "builders"),
-        ("sahara-trace", "layouts_shared_scenes"),
-    ] {
+    for (package, test) in VERIFY_SUITES {
         let status = std::process::Command::new(&cargo)
             .args([
                 "test",
@@ -123,6 +131,7 @@ fn verify() -> anyhow::Result<()> {
                 "--",
                 "--nocapture",
                 "--test-threads=1",
+                "--include-ignored",
             ])
             .env("SAHARA_VERIFY_ALL", "1")
             .status()?;
@@ -136,4 +145,38 @@ fn verify() -> anyhow::Result<()> {
         failed.join(", ")
     );
     Ok(())
+}
+
+/// The test suites `verify` runs, each with its ignored (heavy) tests included.
+const VERIFY_SUITES: &[(&str, &str)] = &[
+    ("sahara-builders", "tree_hashes"),
+    ("sahara-traverse", "builders"),
+    ("sahara-trace", "layouts_shared_scenes"),
+    ("sahara-builders", "sweep"),
+    ("sahara-scene", "procedural"),
+    ("sahara-scene", "shared_scenes"),
+];
+
+#[cfg(test)]
+mod tests {
+    use super::VERIFY_SUITES;
+
+    /// Every suite `verify` runs exists, so a renamed test file cannot drop out of it silently.
+    #[test]
+    fn verify_suites_exist() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        for (package, test) in VERIFY_SUITES {
+            let dir = package.strip_prefix("sahara-").expect("a sahara-* package");
+            let file = root
+                .join("crates")
+                .join(dir)
+                .join("tests")
+                .join(format!("{test}.rs"));
+            assert!(
+                file.is_file(),
+                "{package} --test {test}: no {}",
+                file.display()
+            );
+        }
+    }
 }

@@ -543,13 +543,7 @@ fn code_map_names_every_crate_and_module() {
 }
 
 /// Existing absolute paths, each legitimate: (file, the whole line, trimmed).
-const ABSOLUTE_PATH_ALLOW_LIST: &[(&str, &str)] = &[
-    // A documented example of a ray file written by the user.
-    (
-        "crates/traverse/README.md",
-        "`SAHARA_BENCH_SCENE=sponza_dabrovic SAHARA_BENCH_RAYS=/tmp/sponza.diffuse.rays",
-    ),
-];
+const ABSOLUTE_PATH_ALLOW_LIST: &[(&str, &str)] = &[];
 
 /// Whether a line contains `/work/`, `/root/`, `/home/` or `/tmp/` followed by a letter.
 fn has_absolute_path(line: &str) -> bool {

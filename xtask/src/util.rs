@@ -60,6 +60,23 @@ pub fn time_runs<T>(runs: usize, mut f: impl FnMut() -> T) -> (Vec<f64>, T) {
     (times, last.expect("at least one run"))
 }
 
+/// CPU time of this process so far (user + system, all threads), in milliseconds, from
+/// `/proc/self/stat` at 100 clock ticks per second; NaN where that file does not exist.
+pub fn cpu_ms() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // The fields after the command name, which is in parentheses and may hold spaces.
+    let after = &stat[stat.rfind(')').map_or(0, |i| i + 2)..];
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks = |i: usize| {
+        f.get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    (ticks(11) + ticks(12)) * 10.0
+}
+
 /// The CPU's model name (for reports).
 pub fn cpu_name() -> String {
     std::fs::read_to_string("/proc/cpuinfo")

@@ -259,9 +259,11 @@ fn equals_naive_reference() {
     }
 }
 
-/// Heavier: a large soup, timed (run with `--ignored --nocapture`).
+/// Heavier: a 1M-triangle soup, whose tree's SAH must equal the cost-only sweep's (its build
+/// time is printed, not asserted). Ignored in the default suite because it takes seconds in
+/// release and much longer unoptimised; `cargo xtask verify` runs it.
 #[test]
-#[ignore]
+#[ignore = "heavy check: run by `cargo xtask verify`"]
 fn large_soup_timing() {
     let tris = box_soup(1_000_000, 77);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();

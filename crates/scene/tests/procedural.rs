@@ -109,9 +109,11 @@ fn teapot_stadium_spans_scales() {
     assert!(s.bounds.extent().x > 200.0);
 }
 
-/// Generates every procedural scene at 10^3..10^6 triangles and prints counts and times.
+/// Generates every procedural scene at 10^3..10^6 triangles, checks that each comes within 15%
+/// of the size asked for, and prints counts and times (not asserted). Ignored in the default
+/// suite because of the 10^6-triangle scenes; `cargo xtask verify` runs it.
 #[test]
-#[ignore = "heavy: run with --release -- --ignored --nocapture"]
+#[ignore = "heavy check: run by `cargo xtask verify`"]
 fn large_sizes() {
     for p in Procedural::ALL {
         for size in [1_000usize, 10_000, 100_000, 1_000_000] {

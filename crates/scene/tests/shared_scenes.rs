@@ -1,8 +1,8 @@
 //! The real scenes of `../shared/scenes`, when that folder exists (skipped otherwise).
 //!
 //! The heavy check of every scene (triangle counts, checksums, load times) is `#[ignore]`d:
-//! run it with `cargo test --release -p sahara-scene --test shared_scenes -- --ignored
-//! --nocapture`.
+//! `cargo xtask verify` runs it (or `cargo test --release -p sahara-scene --test shared_scenes
+//! -- --ignored --nocapture`).
 
 mod common;
 
@@ -85,7 +85,7 @@ fn named_scenes_have_their_cameras() {
 /// Loads every scene of the manifest, checks its triangle count and checksum, and prints
 /// the load times and statistics.
 #[test]
-#[ignore = "heavy: loads ~50 MB of scenes; run with --release -- --ignored --nocapture"]
+#[ignore = "heavy check: loads ~50 MB of scenes; run by `cargo xtask verify`"]
 fn all_shared_scenes_load() {
     let Some(c) = shared_catalog() else { return };
     println!(

@@ -1,5 +1,5 @@
-//! Scenes, tiny builders and ray sets shared by the wide-BVH tests and the benchmark (random
-//! soups are `sahara_fixtures::soups::mixed_soup`).
+//! Scenes, tiny builders and ray sets of the wide-BVH tests (random soups are
+//! `sahara_fixtures::soups::mixed_soup`, the binned SAH tree `sahara_fixtures::trees::sah_bvh`).
 #![allow(dead_code)]
 
 use sahara_bvh::{Bvh, Node};
@@ -76,44 +76,6 @@ pub fn sphere_in_box(
     (tris, n_sphere)
 }
 
-/// Triangles of a Wavefront OBJ file (`v x y z` and `f a b c …` lines; polygons are fanned;
-/// `a/b/c` index forms and negative indices accepted).
-pub fn load_obj(path: &str) -> Vec<Triangle> {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let mut verts: Vec<Vec3A> = Vec::new();
-    let mut tris = Vec::new();
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f32> = it.take(3).map(|s| s.parse().unwrap()).collect();
-                verts.push(Vec3A::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let idx: Vec<usize> = it
-                    .map(|s| {
-                        let i: i64 = s.split('/').next().unwrap().parse().unwrap();
-                        if i < 0 {
-                            (verts.len() as i64 + i) as usize
-                        } else {
-                            i as usize - 1
-                        }
-                    })
-                    .collect();
-                for k in 1..idx.len().saturating_sub(1) {
-                    tris.push(Triangle::new(
-                        verts[idx[0]],
-                        verts[idx[k]],
-                        verts[idx[k + 1]],
-                    ));
-                }
-            }
-            _ => {}
-        }
-    }
-    tris
-}
-
 // ---------------------------------------------------------------------------------------------
 // Builders
 // ---------------------------------------------------------------------------------------------
@@ -123,6 +85,10 @@ fn bounds_of(tris: &[Triangle], prims: &[u32]) -> Aabb {
         .iter()
         .fold(Aabb::EMPTY, |b, &p| b.union(&tris[p as usize].bounds()))
 }
+
+/// Binned SAH (16 bins on the longest centroid axis, costs 1 and 1), leaves of at most
+/// `max_leaf` triangles (in `sahara-fixtures`: `cargo xtask measure wide-bench` builds it too).
+pub use sahara_fixtures::trees::sah_bvh;
 
 /// Object-median split on the longest centroid axis, leaves of at most `leaf` triangles.
 pub fn median_bvh(tris: &[Triangle], leaf: usize) -> Bvh {
@@ -164,105 +130,6 @@ fn median_rec(tris: &[Triangle], prims: &mut [u32], leaf: usize, bvh: &mut Bvh) 
     let right = median_rec(tris, r, leaf, bvh);
     bvh.nodes[idx].index = right;
     idx as u32
-}
-
-/// Binned SAH (16 bins on the longest centroid axis, traversal cost 1, intersection cost 1),
-/// leaves of at most `max_leaf` triangles.
-pub fn sah_bvh(tris: &[Triangle], max_leaf: usize) -> Bvh {
-    let mut prims: Vec<u32> = (0..tris.len() as u32).collect();
-    let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
-    let cents: Vec<Vec3A> = bounds.iter().map(|b| b.centroid()).collect();
-    let mut bvh = Bvh::empty();
-    if !prims.is_empty() {
-        sah_rec(&bounds, &cents, &mut prims, max_leaf.max(1), &mut bvh);
-    }
-    bvh
-}
-
-fn sah_rec(bounds: &[Aabb], cents: &[Vec3A], prims: &mut [u32], max_leaf: usize, bvh: &mut Bvh) {
-    const BINS: usize = 16;
-    let idx = bvh.nodes.len();
-    let b = prims
-        .iter()
-        .fold(Aabb::EMPTY, |a, &p| a.union(&bounds[p as usize]));
-    let make_leaf = |bvh: &mut Bvh, prims: &[u32]| {
-        bvh.nodes.push(Node::leaf(
-            &b,
-            bvh.prim_indices.len() as u32,
-            prims.len() as u32,
-        ));
-        bvh.prim_indices.extend_from_slice(prims);
-    };
-    let n = prims.len();
-    if n == 1 {
-        return make_leaf(bvh, prims);
-    }
-    let cb = prims
-        .iter()
-        .fold(Aabb::EMPTY, |a, &p| a.grown(cents[p as usize]));
-    let axis = cb.largest_axis();
-    let (lo, ext) = (cb.min[axis], cb.max[axis] - cb.min[axis]);
-    let mut split = None;
-    if ext > 0.0 {
-        let bin_of =
-            |p: u32| (((cents[p as usize][axis] - lo) / ext * BINS as f32) as usize).min(BINS - 1);
-        let mut bb = [Aabb::EMPTY; BINS];
-        let mut bc = [0usize; BINS];
-        for &p in prims.iter() {
-            let k = bin_of(p);
-            bb[k] = bb[k].union(&bounds[p as usize]);
-            bc[k] += 1;
-        }
-        let mut right_area = [0.0f32; BINS];
-        let mut acc = Aabb::EMPTY;
-        let mut cnt = 0;
-        let mut right_cnt = [0usize; BINS];
-        for k in (1..BINS).rev() {
-            acc = acc.union(&bb[k]);
-            cnt += bc[k];
-            right_area[k] = acc.half_area();
-            right_cnt[k] = cnt;
-        }
-        let mut acc = Aabb::EMPTY;
-        let mut cnt = 0;
-        let mut best = (f32::INFINITY, 0);
-        for k in 1..BINS {
-            acc = acc.union(&bb[k - 1]);
-            cnt += bc[k - 1];
-            if cnt == 0 || right_cnt[k] == 0 {
-                continue;
-            }
-            let c = acc.half_area() * cnt as f32 + right_area[k] * right_cnt[k] as f32;
-            if c < best.0 {
-                best = (c, k);
-            }
-        }
-        if best.1 > 0 {
-            let leaf_cost = n as f32;
-            let split_cost = 1.0 + best.0 / b.half_area().max(f32::MIN_POSITIVE);
-            if n > max_leaf || split_cost < leaf_cost {
-                let mut i = 0;
-                for j in 0..n {
-                    if bin_of(prims[j]) < best.1 {
-                        prims.swap(i, j);
-                        i += 1;
-                    }
-                }
-                split = Some(i);
-            }
-        }
-    }
-    let mid = match split {
-        Some(m) => m,
-        None if n <= max_leaf => return make_leaf(bvh, prims),
-        None => n / 2, // all centroids equal: split in the middle
-    };
-    bvh.nodes.push(Node::inner(&b, 0));
-    let (l, r) = prims.split_at_mut(mid);
-    sah_rec(bounds, cents, l, max_leaf, bvh);
-    let right = bvh.nodes.len() as u32;
-    sah_rec(bounds, cents, r, max_leaf, bvh);
-    bvh.nodes[idx].index = right;
 }
 
 fn pad(b: Aabb) -> Aabb {
