@@ -45,6 +45,60 @@ pub enum Quality {
     BuildHq,
 }
 
+/// A ray as tinybvh's C++ side lays it out. tinybvh 1.6.8's `struct Ray` is aligned to 64 bytes
+/// and 128 bytes long (its `Intersection` ends in a pointer and 56 bytes of user data), while
+/// `tinybvh_rs::Ray` (0.1.0-beta.3) declares only the first 64 bytes, aligned to 16. The C++
+/// traversal, compiled with `-march=native`, reads and writes the whole struct, which
+/// overwrote the Rust caller's stack (a segmentation fault on the first ray, seen on an AVX-512
+/// Xeon). The ray is therefore passed inside this buffer of the C++ size and alignment.
+#[repr(C, align(64))]
+struct CppRay {
+    ray: tinybvh_rs::Ray,
+    _tail: [u8; 64],
+}
+
+impl CppRay {
+    /// What tinybvh's `Ray(origin, direction)` constructor makes: the direction normalised,
+    /// its safe reciprocal (`tinybvh_safercp`: ±1e30 for components within 1e-12 of 0), the
+    /// instance mask `0xFFFF`, no hit. Built here because `tinybvh_rs::Ray::new` returns the
+    /// C++ struct by value into the 64-byte Rust one (the overflow described above).
+    fn new(origin: [f32; 3], direction: [f32; 3]) -> Self {
+        let [x, y, z] = direction;
+        let len = (x * x + y * y + z * z).sqrt();
+        let dir = [x / len, y / len, z / len];
+        let rcp = |v: f32| {
+            if !(-1e-12..=1e-12).contains(&v) {
+                1.0 / v
+            } else if v >= 0.0 {
+                tinybvh_rs::INFINITE
+            } else {
+                -tinybvh_rs::INFINITE
+            }
+        };
+        let ray = tinybvh_rs::Ray {
+            origin,
+            padding_0: 0xFFFF,
+            dir,
+            padding_1: 0,
+            r_d: dir.map(rcp),
+            padding_2: 0,
+            hit: tinybvh_rs::Intersection {
+                t: tinybvh_rs::INFINITE,
+                u: 0.0,
+                v: 0.0,
+                prim: 0,
+            },
+        };
+        CppRay {
+            ray,
+            _tail: [0; 64],
+        }
+    }
+}
+
+const _: () = assert!(std::mem::size_of::<CppRay>() == 128);
+const _: () = assert!(std::mem::size_of::<tinybvh_rs::Ray>() == 64);
+
 /// tinybvh's `BVH8_CPU` over its own tree (see the module documentation).
 pub struct TinyTracer {
     bvh: Option<tinybvh_rs::bvh8_cpu::BVH>,
@@ -114,9 +168,10 @@ impl Tracer for TinyTracer {
             return Hit::MISS;
         }
         let tmax = ray.tmax.min(tinybvh_rs::INFINITE);
-        let mut r = tinybvh_rs::Ray::new(ray.origin.to_array(), ray.direction.to_array());
+        let mut c = CppRay::new(ray.origin.to_array(), ray.direction.to_array());
+        let r = &mut c.ray;
         r.hit.t = tmax;
-        bvh.intersect(&mut r);
+        bvh.intersect(r);
         if r.hit.t < tmax {
             Hit {
                 t: r.hit.t,

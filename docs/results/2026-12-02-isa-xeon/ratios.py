@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """ISA-matched speed ratios from `cargo xtask eval` results.json files (docs/results/2026-12-02-isa-xeon).
 
-Usage: ratios.py RUN_DIR/results.json [...]
+Usage: ratios.py RUN.results.json|RUN_DIR/results.json [...]
 
 For every run, scene and ray kind, each pair (sahara's wide layout with a tree, another
 engine) traced in the same interleaved rounds gives one ratio per round: the other engine's
@@ -32,7 +32,9 @@ def main(paths):
     tallies = {}
     for path in paths:
         r = json.load(open(path))
-        run = path.rstrip("/").split("/")[-2]
+        # The run's name: the file's name before ".results.json", else its folder's name.
+        name = path.rstrip("/").split("/")
+        run = name[-1].removesuffix(".results.json") if name[-1] != "results.json" else name[-2]
         layouts = r["meta"]["settings"]["layouts"]
         wide = "bvh8" if "bvh8" in layouts else "bvh4"
         idx = {}

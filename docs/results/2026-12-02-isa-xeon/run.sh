@@ -9,7 +9,7 @@ set -euo pipefail
 scenes=sponza_dabrovic,sibenik,stanford_bunny,stanford_dragon,utah_teapot,teapot_in_stadium
 scenes+=,san_francisco_osm,sd_macross_diorama,lamborghini_huracan_gt3,gltf_2cylinder_engine
 common=(eval --scenes "$scenes" --builders sweep,sbvh --rays primary,diffuse,ao
-        --threads "${THREADS:-1}" --width 512 --height 384 --passes "${PASSES:-7}"
+        --threads "${THREADS:-1}" --width "${WIDTH:-1024}" --height "${HEIGHT:-768}" --passes "${PASSES:-9}"
         --round-budget "${BUDGET:-8}" --build-runs 1 --no-scaling)
 for isa in ${ISAS:-avx512 avx2 sse2 tinybvh}; do
   case $isa in
