@@ -54,6 +54,9 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
         let w = &rd.w;
         let (kx, ky, kz) = (w.kx, w.ky, w.kz);
         let o = rd.origin;
+        // Indexing arrays, not `Vec3A` (whose `Index` is a branch per component: the dominant
+        // axis of incoherent rays is unpredictable).
+        let wo = w.origin.to_array();
         SseRay {
             origin: [_mm_set1_ps(o[0]), _mm_set1_ps(o[1]), _mm_set1_ps(o[2])],
             inv: [
@@ -71,9 +74,9 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
             near_off: rd.near_row.map(|r| r * W),
             far_off: rd.far_row.map(|r| r * W),
             w_origin: [
-                _mm_set1_ps(w.origin[kx]),
-                _mm_set1_ps(w.origin[ky]),
-                _mm_set1_ps(w.origin[kz]),
+                _mm_set1_ps(wo[kx]),
+                _mm_set1_ps(wo[ky]),
+                _mm_set1_ps(wo[kz]),
             ],
             w_shear: [
                 _mm_set1_ps(w.shear.x),
@@ -463,7 +466,8 @@ unsafe fn slabs8<const W: usize, const NEG: bool>(
 }
 
 /// For every 8-bit mask, the positions of its set bits in increasing order, 3 bits each
-/// (lowest first): the lane permutation that packs the set lanes at the bottom.
+/// (lowest first): the lane permutation that packs the set lanes at the bottom; the number of
+/// set bits in bits 24..28 (AVX2 does not imply `popcnt`).
 static COMPACT8: [u32; 256] = {
     let mut t = [0u32; 256];
     let mut m = 0;
@@ -476,7 +480,7 @@ static COMPACT8: [u32; 256] = {
             }
             b += 1;
         }
-        t[m] = p;
+        t[m] = p | k << 24;
         m += 1;
     }
     t
@@ -512,9 +516,11 @@ unsafe fn descend8<const W: usize, St: Stack>(
         let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         let three = _mm256_set1_epi32(3);
         let seven = _mm256_set1_epi32(7);
-        // Lane i: the slot at stored position `i ^ order_xor` (far to near).
+        // Lane i: the slot at stored position `i ^ order_xor` (far to near). `order_xor` is 0
+        // or 7; masked so that the compiler knows every shift is below 32 (else the variable
+        // shift gets a select for out-of-range counts).
         let shift = _mm256_mullo_epi32(
-            _mm256_xor_si256(lanes, _mm256_set1_epi32(rd.order_xor as i32)),
+            _mm256_xor_si256(lanes, _mm256_set1_epi32((rd.order_xor & 7) as i32)),
             three,
         );
         let p = node.order_bits(rd.order_q) as i32;
@@ -522,8 +528,9 @@ unsafe fn descend8<const W: usize, St: Stack>(
         // The hit bit of each lane's slot, in the sign bit.
         let hit = _mm256_slli_epi32::<31>(_mm256_srlv_epi32(_mm256_set1_epi32(mask as i32), idx));
         let m = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
-        let n = m.count_ones() as usize;
-        let packed = COMPACT8[m as usize & 255] as i32;
+        let packed = COMPACT8[m as usize & 255];
+        let n = (packed >> 24) as usize;
+        let packed = packed as i32;
         let pick = _mm256_and_si256(
             _mm256_srlv_epi32(_mm256_set1_epi32(packed), _mm256_mullo_epi32(lanes, three)),
             seven,
@@ -551,6 +558,8 @@ pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
     sse_ray_and_packets!();
+
+    const NESTED_LOOPS: bool = true;
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
@@ -596,6 +605,8 @@ pub(crate) struct Avx512;
 
 impl<const W: usize> Kernel<W> for Avx512 {
     sse_ray_and_packets!();
+
+    const NESTED_LOOPS: bool = true;
 
     #[inline]
     #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
