@@ -28,8 +28,6 @@ pub(crate) struct SseRay {
     t_lo: __m128,
     t_hi: __m128,
     box_tmin: __m128,
-    tmin: __m128,
-    tmax: __m128,
     /// Offsets (in floats, rows times `W`) of the near and far planes of each axis.
     near_off: [usize; 3],
     far_off: [usize; 3],
@@ -47,30 +45,62 @@ pub(crate) struct SseRay {
     dir: [__m128; 3],
 }
 
+/// The three components of `v`, each broadcast to the four lanes (one shuffle each; with SSE2
+/// a broadcast from memory takes a load and a shuffle).
 #[inline(always)]
-unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
+unsafe fn splat3(v: sahara_geom::Vec3A) -> [__m128; 3] {
+    // SAFETY (whole function): SSE2 is part of x86-64.
+    unsafe {
+        let v: __m128 = v.into();
+        [
+            _mm_shuffle_ps::<0x00>(v, v),
+            _mm_shuffle_ps::<0x55>(v, v),
+            _mm_shuffle_ps::<0xaa>(v, v),
+        ]
+    }
+}
+
+/// The ray's constants. `SPLAT`: broadcast the origin, the reciprocal direction and the shear
+/// from vector registers, one shuffle each (cheaper for SSE2, where a broadcast from memory is a
+/// load and a shuffle); else from memory (one `vbroadcastss` with AVX, measured cheaper there).
+#[inline(always)]
+unsafe fn sse_ray<const W: usize, const SPLAT: bool>(rd: &RayData) -> SseRay {
     // SAFETY (whole function): SSE2 is part of x86-64.
     unsafe {
         let w = &rd.w;
         let (kx, ky, kz) = (w.kx, w.ky, w.kz);
-        let o = rd.origin;
         // Indexing arrays, not `Vec3A` (whose `Index` is a branch per component: the dominant
         // axis of incoherent rays is unpredictable).
         let wo = w.origin.to_array();
+        // `w.origin` and `w.inv_direction` are the ray's origin and reciprocal direction (also
+        // before `RayData::finish`), and `far_factors` gives `rd.inv_far` / `rd.inv_far_neg`
+        // bit for bit (the same multiplications).
+        let (far_pos, far_neg) = sahara_geom::intersect::far_factors(w.inv_direction);
+        let from_memory = |x: [f32; 3]| x.map(|c| _mm_set1_ps(c));
         SseRay {
-            origin: [_mm_set1_ps(o[0]), _mm_set1_ps(o[1]), _mm_set1_ps(o[2])],
-            inv: [
-                _mm_set1_ps(rd.inv[0]),
-                _mm_set1_ps(rd.inv[1]),
-                _mm_set1_ps(rd.inv[2]),
-            ],
-            inv_far: rd.inv_far.map(|x| _mm_set1_ps(x)),
-            inv_far_neg: rd.inv_far_neg.map(|x| _mm_set1_ps(x)),
+            origin: if SPLAT {
+                splat3(w.origin)
+            } else {
+                from_memory(rd.origin)
+            },
+            inv: if SPLAT {
+                splat3(w.inv_direction)
+            } else {
+                from_memory(rd.inv)
+            },
+            inv_far: if SPLAT {
+                splat3(far_pos)
+            } else {
+                from_memory(rd.inv_far)
+            },
+            inv_far_neg: if SPLAT {
+                splat3(far_neg)
+            } else {
+                from_memory(rd.inv_far_neg)
+            },
             t_lo: _mm_set1_ps(rd.tmin.max(-f32::MAX)),
             t_hi: _mm_set1_ps(rd.tmax.min(f32::MAX)),
             box_tmin: _mm_set1_ps(rd.box_tmin),
-            tmin: _mm_set1_ps(rd.tmin),
-            tmax: _mm_set1_ps(rd.tmax),
             near_off: rd.near_row.map(|r| r * W),
             far_off: rd.far_row.map(|r| r * W),
             w_origin: [
@@ -78,11 +108,11 @@ unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
                 _mm_set1_ps(wo[ky]),
                 _mm_set1_ps(wo[kz]),
             ],
-            w_shear: [
-                _mm_set1_ps(w.shear.x),
-                _mm_set1_ps(w.shear.y),
-                _mm_set1_ps(w.shear.z),
-            ],
+            w_shear: if SPLAT {
+                splat3(w.shear)
+            } else {
+                from_memory(w.shear.to_array())
+            },
             w_axis: [kx, ky, kz],
             w_far: _mm_set1_ps(rd.inv_far[kz]),
             w_far_neg: _mm_set1_ps(rd.inv_far_neg[kz]),
@@ -200,7 +230,9 @@ unsafe fn tri4(p: &TriPacket, r: &SseRay) -> Edges {
 /// The vertices' distances along the ray's dominant axis, `z_i = sz · dz_i` (the reference's
 /// `az`, `bz`, `cz`), and the mask of lanes that can pass [`accept4`]'s range check with a
 /// distance at most `hi`: the smallest `z_i` is at most `hi` and the largest far distance of the
-/// dominant axis, `max_i dz_i · inv_far[kz]` (and `inv_far_neg[kz]` for `NEG`), at least `tmin`.
+/// dominant axis, `max_i dz_i · inv_far[kz]` (and `inv_far_neg[kz]` for `NEG`), at least
+/// `t_lo = max(tmin, -f32::MAX)` (the bound of [`accept4`]'s range check: a lane whose far bound
+/// is below it fails that check, or is `-∞`, which is not finite).
 ///
 /// This is exact, not a heuristic: `z_i` is computed with the operations of the triangle box's
 /// near distance on that axis, which is therefore `min_i z_i` (rounding is monotonic), and the
@@ -229,7 +261,7 @@ unsafe fn dominant_slab4<const NEG: bool>(
         };
         let [d0, d1, d2] = e.dz;
         let zfar = _mm_max_ps(far(d0), _mm_max_ps(far(d1), far(d2)));
-        let ok = _mm_and_ps(_mm_cmple_ps(zmin, hi), _mm_cmpge_ps(zfar, r.tmin));
+        let ok = _mm_and_ps(_mm_cmple_ps(zmin, hi), _mm_cmpge_ps(zfar, r.t_lo));
         (ok, z)
     }
 }
@@ -344,7 +376,7 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let (reach, z) = dominant_slab4::<NEG>(&e, r, r.tmax);
+        let (reach, z) = dominant_slab4::<NEG>(&e, r, r.t_hi);
         let ok = _mm_and_ps(ok, reach);
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
@@ -364,13 +396,13 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
 /// hoisted out of it (building them in `prepare` would need a `target_feature` function that
 /// is not inlined).
 macro_rules! sse_ray_and_packets {
-    () => {
+    ($splat:expr) => {
         type Ray = SseRay;
 
         #[inline(always)]
         unsafe fn prepare(rd: &RayData) -> SseRay {
             // SAFETY: SSE2 is part of x86-64.
-            unsafe { sse_ray::<W>(rd) }
+            unsafe { sse_ray::<W, { $splat }>(rd) }
         }
 
         #[inline(always)]
@@ -401,7 +433,7 @@ macro_rules! sse_ray_and_packets {
 pub(crate) struct Sse;
 
 impl<const W: usize> Kernel<W> for Sse {
-    sse_ray_and_packets!();
+    sse_ray_and_packets!(true);
 
     #[inline(always)]
     unsafe fn intersect_node<const NEG: bool>(
@@ -557,7 +589,7 @@ unsafe fn descend8<const W: usize, St: Stack>(
 pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
-    sse_ray_and_packets!();
+    sse_ray_and_packets!(false);
 
     const NESTED_LOOPS: bool = true;
 
@@ -604,7 +636,7 @@ impl<const W: usize> Kernel<W> for Avx2 {
 pub(crate) struct Avx512;
 
 impl<const W: usize> Kernel<W> for Avx512 {
-    sse_ray_and_packets!();
+    sse_ray_and_packets!(false);
 
     const NESTED_LOOPS: bool = true;
 
@@ -840,7 +872,7 @@ pub(crate) mod inexact {
         #[inline(always)]
         unsafe fn prepare(rd: &RayData) -> SseRay {
             // SAFETY: SSE2 is part of x86-64.
-            unsafe { sse_ray::<W>(rd) }
+            unsafe { sse_ray::<W, false>(rd) }
         }
 
         #[inline]
@@ -867,7 +899,7 @@ pub(crate) mod inexact {
             // SAFETY: SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
             unsafe {
                 let hi = _mm_min_ps(r.t_hi, _mm_set1_ps(tfar));
-                let (m, t, u, v) = mt4(p, r, r.tmin, hi);
+                let (m, t, u, v) = mt4(p, r, r.t_lo, hi);
                 if m != 0 {
                     _mm_storeu_ps(out.t.as_mut_ptr(), t);
                     _mm_storeu_ps(out.u.as_mut_ptr(), u);
@@ -884,7 +916,7 @@ pub(crate) mod inexact {
             _: &RayData,
         ) -> (u32, u32) {
             // SAFETY: SSE2 is part of x86-64.
-            unsafe { (mt4(p, r, r.tmin, r.t_hi).0, 0) }
+            unsafe { (mt4(p, r, r.t_lo, r.t_hi).0, 0) }
         }
     }
 
