@@ -28,8 +28,6 @@ pub(crate) struct SseRay {
     t_lo: __m128,
     t_hi: __m128,
     box_tmin: __m128,
-    tmin: __m128,
-    tmax: __m128,
     /// Offsets (in floats, rows times `W`) of the near and far planes of each axis.
     near_off: [usize; 3],
     far_off: [usize; 3],
@@ -47,39 +45,74 @@ pub(crate) struct SseRay {
     dir: [__m128; 3],
 }
 
+/// The three components of `v`, each broadcast to the four lanes (one shuffle each; with SSE2
+/// a broadcast from memory takes a load and a shuffle).
 #[inline(always)]
-unsafe fn sse_ray<const W: usize>(rd: &RayData) -> SseRay {
+unsafe fn splat3(v: sahara_geom::Vec3A) -> [__m128; 3] {
+    // SAFETY (whole function): SSE2 is part of x86-64.
+    unsafe {
+        let v: __m128 = v.into();
+        [
+            _mm_shuffle_ps::<0x00>(v, v),
+            _mm_shuffle_ps::<0x55>(v, v),
+            _mm_shuffle_ps::<0xaa>(v, v),
+        ]
+    }
+}
+
+/// The ray's constants. `SPLAT`: broadcast the origin, the reciprocal direction and the shear
+/// from vector registers, one shuffle each (cheaper for SSE2, where a broadcast from memory is a
+/// load and a shuffle); else from memory (one `vbroadcastss` with AVX, measured cheaper there).
+#[inline(always)]
+unsafe fn sse_ray<const W: usize, const SPLAT: bool>(rd: &RayData) -> SseRay {
     // SAFETY (whole function): SSE2 is part of x86-64.
     unsafe {
         let w = &rd.w;
         let (kx, ky, kz) = (w.kx, w.ky, w.kz);
-        let o = rd.origin;
+        // Indexing arrays, not `Vec3A` (whose `Index` is a branch per component: the dominant
+        // axis of incoherent rays is unpredictable).
+        let wo = w.origin.to_array();
+        // `w.origin` and `w.inv_direction` are the ray's origin and reciprocal direction (also
+        // before `RayData::finish`), and `far_factors` gives `rd.inv_far` / `rd.inv_far_neg`
+        // bit for bit (the same multiplications).
+        let (far_pos, far_neg) = sahara_geom::intersect::far_factors(w.inv_direction);
+        let from_memory = |x: [f32; 3]| x.map(|c| _mm_set1_ps(c));
         SseRay {
-            origin: [_mm_set1_ps(o[0]), _mm_set1_ps(o[1]), _mm_set1_ps(o[2])],
-            inv: [
-                _mm_set1_ps(rd.inv[0]),
-                _mm_set1_ps(rd.inv[1]),
-                _mm_set1_ps(rd.inv[2]),
-            ],
-            inv_far: rd.inv_far.map(|x| _mm_set1_ps(x)),
-            inv_far_neg: rd.inv_far_neg.map(|x| _mm_set1_ps(x)),
+            origin: if SPLAT {
+                splat3(w.origin)
+            } else {
+                from_memory(rd.origin)
+            },
+            inv: if SPLAT {
+                splat3(w.inv_direction)
+            } else {
+                from_memory(rd.inv)
+            },
+            inv_far: if SPLAT {
+                splat3(far_pos)
+            } else {
+                from_memory(rd.inv_far)
+            },
+            inv_far_neg: if SPLAT {
+                splat3(far_neg)
+            } else {
+                from_memory(rd.inv_far_neg)
+            },
             t_lo: _mm_set1_ps(rd.tmin.max(-f32::MAX)),
             t_hi: _mm_set1_ps(rd.tmax.min(f32::MAX)),
             box_tmin: _mm_set1_ps(rd.box_tmin),
-            tmin: _mm_set1_ps(rd.tmin),
-            tmax: _mm_set1_ps(rd.tmax),
             near_off: rd.near_row.map(|r| r * W),
             far_off: rd.far_row.map(|r| r * W),
             w_origin: [
-                _mm_set1_ps(w.origin[kx]),
-                _mm_set1_ps(w.origin[ky]),
-                _mm_set1_ps(w.origin[kz]),
+                _mm_set1_ps(wo[kx]),
+                _mm_set1_ps(wo[ky]),
+                _mm_set1_ps(wo[kz]),
             ],
-            w_shear: [
-                _mm_set1_ps(w.shear.x),
-                _mm_set1_ps(w.shear.y),
-                _mm_set1_ps(w.shear.z),
-            ],
+            w_shear: if SPLAT {
+                splat3(w.shear)
+            } else {
+                from_memory(w.shear.to_array())
+            },
             w_axis: [kx, ky, kz],
             w_far: _mm_set1_ps(rd.inv_far[kz]),
             w_far_neg: _mm_set1_ps(rd.inv_far_neg[kz]),
@@ -197,7 +230,9 @@ unsafe fn tri4(p: &TriPacket, r: &SseRay) -> Edges {
 /// The vertices' distances along the ray's dominant axis, `z_i = sz · dz_i` (the reference's
 /// `az`, `bz`, `cz`), and the mask of lanes that can pass [`accept4`]'s range check with a
 /// distance at most `hi`: the smallest `z_i` is at most `hi` and the largest far distance of the
-/// dominant axis, `max_i dz_i · inv_far[kz]` (and `inv_far_neg[kz]` for `NEG`), at least `tmin`.
+/// dominant axis, `max_i dz_i · inv_far[kz]` (and `inv_far_neg[kz]` for `NEG`), at least
+/// `t_lo = max(tmin, -f32::MAX)` (the bound of [`accept4`]'s range check: a lane whose far bound
+/// is below it fails that check, or is `-∞`, which is not finite).
 ///
 /// This is exact, not a heuristic: `z_i` is computed with the operations of the triangle box's
 /// near distance on that axis, which is therefore `min_i z_i` (rounding is monotonic), and the
@@ -226,7 +261,7 @@ unsafe fn dominant_slab4<const NEG: bool>(
         };
         let [d0, d1, d2] = e.dz;
         let zfar = _mm_max_ps(far(d0), _mm_max_ps(far(d1), far(d2)));
-        let ok = _mm_and_ps(_mm_cmple_ps(zmin, hi), _mm_cmpge_ps(zfar, r.tmin));
+        let ok = _mm_and_ps(_mm_cmple_ps(zmin, hi), _mm_cmpge_ps(zfar, r.t_lo));
         (ok, z)
     }
 }
@@ -341,7 +376,7 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let (reach, z) = dominant_slab4::<NEG>(&e, r, r.tmax);
+        let (reach, z) = dominant_slab4::<NEG>(&e, r, r.t_hi);
         let ok = _mm_and_ps(ok, reach);
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
@@ -361,13 +396,13 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
 /// hoisted out of it (building them in `prepare` would need a `target_feature` function that
 /// is not inlined).
 macro_rules! sse_ray_and_packets {
-    () => {
+    ($splat:expr) => {
         type Ray = SseRay;
 
         #[inline(always)]
         unsafe fn prepare(rd: &RayData) -> SseRay {
             // SAFETY: SSE2 is part of x86-64.
-            unsafe { sse_ray::<W>(rd) }
+            unsafe { sse_ray::<W, { $splat }>(rd) }
         }
 
         #[inline(always)]
@@ -398,7 +433,7 @@ macro_rules! sse_ray_and_packets {
 pub(crate) struct Sse;
 
 impl<const W: usize> Kernel<W> for Sse {
-    sse_ray_and_packets!();
+    sse_ray_and_packets!(true);
 
     #[inline(always)]
     unsafe fn intersect_node<const NEG: bool>(
@@ -463,7 +498,8 @@ unsafe fn slabs8<const W: usize, const NEG: bool>(
 }
 
 /// For every 8-bit mask, the positions of its set bits in increasing order, 3 bits each
-/// (lowest first): the lane permutation that packs the set lanes at the bottom.
+/// (lowest first): the lane permutation that packs the set lanes at the bottom; the number of
+/// set bits in bits 24..28 (AVX2 does not imply `popcnt`).
 static COMPACT8: [u32; 256] = {
     let mut t = [0u32; 256];
     let mut m = 0;
@@ -476,7 +512,7 @@ static COMPACT8: [u32; 256] = {
             }
             b += 1;
         }
-        t[m] = p;
+        t[m] = p | k << 24;
         m += 1;
     }
     t
@@ -512,9 +548,11 @@ unsafe fn descend8<const W: usize, St: Stack>(
         let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         let three = _mm256_set1_epi32(3);
         let seven = _mm256_set1_epi32(7);
-        // Lane i: the slot at stored position `i ^ order_xor` (far to near).
+        // Lane i: the slot at stored position `i ^ order_xor` (far to near). `order_xor` is 0
+        // or 7; masked so that the compiler knows every shift is below 32 (else the variable
+        // shift gets a select for out-of-range counts).
         let shift = _mm256_mullo_epi32(
-            _mm256_xor_si256(lanes, _mm256_set1_epi32(rd.order_xor as i32)),
+            _mm256_xor_si256(lanes, _mm256_set1_epi32((rd.order_xor & 7) as i32)),
             three,
         );
         let p = node.order_bits(rd.order_q) as i32;
@@ -522,8 +560,9 @@ unsafe fn descend8<const W: usize, St: Stack>(
         // The hit bit of each lane's slot, in the sign bit.
         let hit = _mm256_slli_epi32::<31>(_mm256_srlv_epi32(_mm256_set1_epi32(mask as i32), idx));
         let m = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
-        let n = m.count_ones() as usize;
-        let packed = COMPACT8[m as usize & 255] as i32;
+        let packed = COMPACT8[m as usize & 255];
+        let n = (packed >> 24) as usize;
+        let packed = packed as i32;
         let pick = _mm256_and_si256(
             _mm256_srlv_epi32(_mm256_set1_epi32(packed), _mm256_mullo_epi32(lanes, three)),
             seven,
@@ -550,7 +589,9 @@ unsafe fn descend8<const W: usize, St: Stack>(
 pub(crate) struct Avx2;
 
 impl<const W: usize> Kernel<W> for Avx2 {
-    sse_ray_and_packets!();
+    sse_ray_and_packets!(false);
+
+    const NESTED_LOOPS: bool = true;
 
     #[inline]
     #[target_feature(enable = "avx2,fma")]
@@ -595,7 +636,9 @@ impl<const W: usize> Kernel<W> for Avx2 {
 pub(crate) struct Avx512;
 
 impl<const W: usize> Kernel<W> for Avx512 {
-    sse_ray_and_packets!();
+    sse_ray_and_packets!(false);
+
+    const NESTED_LOOPS: bool = true;
 
     #[inline]
     #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
@@ -829,7 +872,7 @@ pub(crate) mod inexact {
         #[inline(always)]
         unsafe fn prepare(rd: &RayData) -> SseRay {
             // SAFETY: SSE2 is part of x86-64.
-            unsafe { sse_ray::<W>(rd) }
+            unsafe { sse_ray::<W, false>(rd) }
         }
 
         #[inline]
@@ -856,7 +899,7 @@ pub(crate) mod inexact {
             // SAFETY: SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
             unsafe {
                 let hi = _mm_min_ps(r.t_hi, _mm_set1_ps(tfar));
-                let (m, t, u, v) = mt4(p, r, r.tmin, hi);
+                let (m, t, u, v) = mt4(p, r, r.t_lo, hi);
                 if m != 0 {
                     _mm_storeu_ps(out.t.as_mut_ptr(), t);
                     _mm_storeu_ps(out.u.as_mut_ptr(), u);
@@ -873,7 +916,7 @@ pub(crate) mod inexact {
             _: &RayData,
         ) -> (u32, u32) {
             // SAFETY: SSE2 is part of x86-64.
-            unsafe { (mt4(p, r, r.tmin, r.t_hi).0, 0) }
+            unsafe { (mt4(p, r, r.t_lo, r.t_hi).0, 0) }
         }
     }
 
