@@ -44,12 +44,17 @@ pub struct Args {
     /// hairball, city and teapot_stadium; quick: the procedural ones at 20k/10k triangles).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
-    /// Factors to run (default all): cost, leaf, breadth, where, temporary, camera, reinsert.
+    /// Factors to run (default all): cost, leaf, breadth, where, temporary, camera, reinsert,
+    /// combined.
     #[arg(long, value_delimiter = ',')]
     pub factors: Vec<String>,
-    /// Also measure speed (bvh2 and bvh8) against the reference, interleaved rounds.
+    /// Measure speed (bvh2 and bvh8) against the reference in interleaved rounds. The full
+    /// study does by default; `--quick` only with this flag.
     #[arg(long)]
     pub speed: bool,
+    /// Skip the speed measurement (work per ray, SAH, EPO and build time only).
+    #[arg(long, conflicts_with = "speed")]
+    pub no_speed: bool,
     /// Timed rounds per speed cell (default 5, quick 3).
     #[arg(long)]
     pub rounds: Option<usize>,
@@ -59,10 +64,10 @@ pub struct Args {
     /// Rayon threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Image width of the ray sets (default 512, quick 192).
+    /// Image width of the ray sets (default 384, quick 192).
     #[arg(long)]
     pub width: Option<u32>,
-    /// Image height (default 384, quick 144).
+    /// Image height (default 288, quick 144).
     #[arg(long)]
     pub height: Option<u32>,
     /// Seed of the secondary rays.
@@ -86,6 +91,7 @@ pub const FACTORS: &[&str] = &[
     "temporary",
     "camera",
     "reinsert",
+    "combined",
 ];
 
 /// The camera a setting's rays come from.
@@ -429,6 +435,51 @@ fn settings(factor: &str, quick: bool) -> Result<Vec<Setting>> {
                 });
             }
         }
+        "combined" => {
+            // Candidate presets that combine the levels the single factors favour (wider
+            // candidate sets, binned temporaries), next to the registered presets they would
+            // have to beat: the evidence for registering one (issue 15, item 3).
+            let combos: [(&'static str, TsahConfig); 3] = [
+                (
+                    "4 binned planes per axis, binned-8 temporaries",
+                    TsahConfig {
+                        candidates: Candidates::Binned { bins_per_axis: 4 },
+                        temporary: Temporary::Binned { bins: 8 },
+                        ..TsahConfig::TOP_K
+                    },
+                ),
+                (
+                    "top-2 per axis, binned-8 temporaries",
+                    TsahConfig {
+                        temporary: Temporary::Binned { bins: 8 },
+                        ..TsahConfig::TOP_K
+                    },
+                ),
+                (
+                    "4 binned planes per axis, sweep temporaries",
+                    TsahConfig {
+                        candidates: Candidates::Binned { bins_per_axis: 4 },
+                        ..TsahConfig::TOP_K
+                    },
+                ),
+            ];
+            for (name, c) in combos {
+                v.push(Setting {
+                    make: Box::new(move |_| tsah(c)),
+                    ..base("combined", "tsah-topk", name.into())
+                });
+            }
+            let presets: [Preset; 2] = [
+                ("tsah-topk", || tsah(TsahConfig::TOP_K)),
+                ("hybrid", || popov(PopovConfig::HYBRID)),
+            ];
+            for (name, f) in presets {
+                v.push(Setting {
+                    make: Box::new(move |_| f()),
+                    ..base("combined", name, "registered preset".into())
+                });
+            }
+        }
         other => bail!("unknown factor '{other}' (known: {})", FACTORS.join(", ")),
     }
     Ok(v)
@@ -591,6 +642,18 @@ struct SpeedCell {
     rounds: usize,
 }
 
+impl SpeedCell {
+    /// The cell of a tree identical to its reference: exactly 1, no rounds timed.
+    const IDENTICAL: SpeedCell = SpeedCell {
+        interval: Interval {
+            estimate: 1.0,
+            low: 1.0,
+            high: 1.0,
+        },
+        rounds: 0,
+    };
+}
+
 /// Speed of `tree` against `reference` per (layout, ray kind): the median of the per-round
 /// ratios reference time / tree time (> 1 is faster) of interleaved rounds, with its
 /// bootstrap interval. Each cell starts with `rounds` rounds and takes `rounds` more while
@@ -734,10 +797,11 @@ pub fn run(a: Args) -> Result<()> {
     let t0 = Instant::now();
     let q = a.quick;
     let (width, height) = (
-        a.width.unwrap_or(if q { 192 } else { 512 }),
-        a.height.unwrap_or(if q { 144 } else { 384 }),
+        a.width.unwrap_or(if q { 192 } else { 384 }),
+        a.height.unwrap_or(if q { 144 } else { 288 }),
     );
     let rounds = a.rounds.unwrap_or(if q { 3 } else { 5 });
+    let measure_speed = if q { a.speed } else { !a.no_speed };
     let factors: Vec<String> = if a.factors.is_empty() {
         FACTORS.iter().map(|s| s.to_string()).collect()
     } else {
@@ -779,6 +843,9 @@ pub fn run(a: Args) -> Result<()> {
         let mut cands: HashMap<String, (Tree, String)> = HashMap::new();
         let mut sets: HashMap<CameraKind, (Vec<RaySet>, bool)> = HashMap::new();
         let mut ref_work: HashMap<String, Vec<f64>> = HashMap::new();
+        // Speed cells by (candidate, reference, camera): a tree shared by several rows
+        // (tsah-topk appears in most factors) is timed once.
+        let mut speeds: HashMap<String, Vec<SpeedCell>> = HashMap::new();
         for s in &plan {
             if s.heavy && n > a.heavy_limit {
                 eprintln!(
@@ -831,8 +898,17 @@ pub fn run(a: Args) -> Result<()> {
             let (tree, _) = &cands[&ckey];
             let w = work(tree, tris, set, s.cost, a.threads)?;
             let rw = &ref_work[&wkey];
-            let sp = if a.speed {
-                Some(speed(tree, reference, tris, set, rounds, a.threads)?)
+            let sp = if measure_speed {
+                let skey = format!("{ckey} | {wkey}");
+                if let Entry::Vacant(slot) = speeds.entry(skey.clone()) {
+                    slot.insert(if tree.bvh == reference.bvh {
+                        // The same tree: the ratio is 1 by definition, nothing to time.
+                        vec![SpeedCell::IDENTICAL; LAYOUTS.len() * set.len()]
+                    } else {
+                        speed(tree, reference, tris, set, rounds, a.threads)?
+                    });
+                }
+                Some(speeds[&skey].clone())
             } else {
                 None
             };
@@ -976,7 +1052,8 @@ pub fn render_markdown(csv: &str) -> Result<String> {
          triangles of the collapsed tree). `build ×` is the builder's build time over the \
          reference's (one run each; noisy on a shared machine). `best primary` is the \
          setting's largest primary-ray gain over the scenes. Speed columns (median of \
-         per-round time ratios) appear when the study ran with `--speed`.\n",
+         per-round time ratios; 1 exactly where the tree equals its reference) are absent \
+         when the study ran without timing (`--no-speed`, or `--quick` without `--speed`).\n",
         scenes.len(),
         scenes.join(", ")
     );
@@ -1003,6 +1080,7 @@ pub fn render_markdown(csv: &str) -> Result<String> {
         ("speed bvh8 primary", "speed_bvh8_primary"),
         ("speed bvh8 diffuse", "speed_bvh8_diffuse"),
     ];
+    main_table(&mut md, &rows, &factors, has_speed);
     for factor in &factors {
         let _ = writeln!(md, "## Factor: {factor}\n");
         let mut head = "| builder | setting | reference | scenes |".to_string();
@@ -1109,6 +1187,154 @@ pub fn render_markdown(csv: &str) -> Result<String> {
         );
     }
     Ok(md)
+}
+
+/// The geometric mean over `sel` of the gain in column `c`.
+fn mean_gain(sel: &[&Row], c: &str) -> Option<f64> {
+    geomean(&sel.iter().filter_map(|r| r.gain(c)).collect::<Vec<_>>())
+}
+
+/// The geometric mean over `sel` of the raw value in column `c` (speed ratios).
+fn mean_x(sel: &[&Row], c: &str) -> Option<f64> {
+    geomean(&sel.iter().filter_map(|r| r.x(c)).collect::<Vec<_>>())
+}
+
+/// The study's main table, one row per factor: the level with the largest geometric-mean
+/// bvh2 primary work gain among the levels that ran on every scene of the factor, its other
+/// figures, and the range of that gain over the factor's levels (how much the knob moves it).
+/// Then the largest single-scene gains of the whole study, with their measured speed.
+fn main_table(md: &mut String, rows: &[Row], factors: &[&str], has_speed: bool) {
+    let _ = writeln!(
+        md,
+        "## Main table\n\nPer factor, the level with the largest bvh2 primary-ray work gain \
+         (geometric mean over the scenes the factor's levels all ran on), and the range of \
+         that gain over the factor's levels.\n"
+    );
+    let mut head = "| factor | best level (builder) | scenes | SAH | bvh2 primary | bvh2 diffuse | \
+                    bvh2 AO | bvh8 primary | bvh8 diffuse | bvh8 AO | build × | range over levels |"
+        .to_string();
+    let mut rule =
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"
+            .to_string();
+    if has_speed {
+        head += " speed bvh2 primary | speed bvh8 primary | speed bvh8 diffuse |";
+        rule += " ---: | ---: | ---: |";
+    }
+    let _ = writeln!(md, "{head}\n{rule}");
+    for factor in factors {
+        let in_factor: Vec<&Row> = rows.iter().filter(|r| r.s("factor") == *factor).collect();
+        let mut keys: Vec<(&str, &str, &str)> = Vec::new();
+        for r in &in_factor {
+            let k = (r.s("builder"), r.s("level"), r.s("reference"));
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
+        }
+        let of = |k: &(&str, &str, &str)| -> Vec<&Row> {
+            in_factor
+                .iter()
+                .copied()
+                .filter(|r| (r.s("builder"), r.s("level"), r.s("reference")) == *k)
+                .collect()
+        };
+        let full = keys.iter().map(|k| of(k).len()).max().unwrap_or(0);
+        let rated: Vec<((&str, &str, &str), f64)> = keys
+            .iter()
+            .filter(|k| of(k).len() == full)
+            .filter_map(|k| mean_gain(&of(k), "work_bvh2_primary").map(|g| (*k, g)))
+            .collect();
+        let Some((best, _)) = rated.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1)) else {
+            continue;
+        };
+        let lo = rated.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+        let hi = rated.iter().map(|r| r.1).fold(f64::NEG_INFINITY, f64::max);
+        let sel = of(&best);
+        let mut line = format!("| {factor} | {} ({}) | {} |", best.1, best.0, sel.len());
+        for c in [
+            "sah",
+            "work_bvh2_primary",
+            "work_bvh2_diffuse",
+            "work_bvh2_ao",
+            "work_bvh8_primary",
+            "work_bvh8_diffuse",
+            "work_bvh8_ao",
+        ] {
+            line += &format!(" {} |", fmt_cell(mean_gain(&sel, c)));
+        }
+        let bt: Vec<f64> = sel
+            .iter()
+            .filter_map(|r| r.gain("build_s").map(|g| 1.0 / g))
+            .collect();
+        line += &format!(" {} | {lo:.3}–{hi:.3} |", fmt_cell(geomean(&bt)));
+        if has_speed {
+            for c in [
+                "speed_bvh2_primary",
+                "speed_bvh8_primary",
+                "speed_bvh8_diffuse",
+            ] {
+                line += &format!(" {} |", fmt_cell(mean_x(&sel, c)));
+            }
+        }
+        let _ = writeln!(md, "{line}");
+    }
+    let _ = writeln!(
+        md,
+        "\n### Largest single-scene gains\n\nThe ten (scene, setting) rows with the largest \
+         bvh2 primary-ray work gain{}.\n",
+        if has_speed {
+            ", with their measured bvh2 and bvh8 primary speed (median ratio [95% interval])"
+        } else {
+            ""
+        }
+    );
+    let mut top: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.gain("work_bvh2_primary").is_some())
+        .collect();
+    top.sort_by(|a, b| {
+        b.gain("work_bvh2_primary")
+            .unwrap_or(0.0)
+            .total_cmp(&a.gain("work_bvh2_primary").unwrap_or(0.0))
+    });
+    // One row per (scene, builder, level): the same tree appears in several factors.
+    let mut seen: Vec<(&str, &str, &str, &str)> = Vec::new();
+    let _ = writeln!(
+        md,
+        "| scene | factor | builder | setting | camera | SAH | bvh2 primary | bvh2 diffuse | bvh8 primary |{}\n| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: |{}",
+        if has_speed { " speed bvh2 primary | speed bvh8 primary |" } else { "" },
+        if has_speed { " --- | --- |" } else { "" }
+    );
+    for r in top {
+        let k = (r.s("scene"), r.s("builder"), r.s("level"), r.s("camera"));
+        if seen.contains(&k) {
+            continue;
+        }
+        seen.push(k);
+        let mut line = format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.s("scene"),
+            r.s("factor"),
+            r.s("builder"),
+            r.s("level"),
+            r.s("camera"),
+            fmt_cell(r.gain("sah")),
+            fmt_cell(r.gain("work_bvh2_primary")),
+            fmt_cell(r.gain("work_bvh2_diffuse")),
+            fmt_cell(r.gain("work_bvh8_primary")),
+        );
+        if has_speed {
+            line += &format!(
+                " {} | {} |",
+                speed_cell(r, "speed_bvh2_primary"),
+                speed_cell(r, "speed_bvh8_primary")
+            );
+        }
+        let _ = writeln!(md, "{line}");
+        if seen.len() == 10 {
+            break;
+        }
+    }
+    let _ = writeln!(md);
 }
 
 /// A speed cell with its interval, `≈` marking an interval that contains 1 (a tie).

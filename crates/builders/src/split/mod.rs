@@ -104,16 +104,66 @@ pub fn float_key(x: f32) -> u32 {
 /// The items `0..n` sorted by `(key(i), i)` in the order of `f32::total_cmp` then index, as
 /// `u64` words whose low half is the item (`word as u32`). The words are unique, so the result
 /// does not depend on the sorting algorithm (`keys` is reused as the buffer).
+///
+/// Inputs of at least [`RADIX_MIN`] items are sorted by an LSD radix sort (11-bit digits):
+/// three passes over the float keys when the items come in increasing id order (the sweep's
+/// presort and every caller that keys by position), else a pass per varying digit of the
+/// whole word. Smaller inputs use the comparison sort. Either gives the one sorted order of
+/// unique words.
 pub fn sort_by_key(keys: &mut Vec<u64>, n: usize, key: impl Fn(usize) -> (f32, u32)) {
     keys.clear();
+    let mut ids_increasing = true;
+    let mut last: Option<u32> = None;
     keys.extend((0..n).map(|i| {
         let (k, id) = key(i);
+        ids_increasing &= last.is_none_or(|l| l < id);
+        last = Some(id);
         ((float_key(k) as u64) << 32) | id as u64
     }));
-    if keys.len() > 1 << 14 {
-        rayon::slice::ParallelSliceMut::par_sort_unstable(&mut keys[..]);
+    if keys.len() >= RADIX_MIN {
+        radix_sort_words(keys, ids_increasing);
     } else {
         keys.sort_unstable();
+    }
+}
+
+/// Inputs of at least this many items are radix-sorted by [`sort_by_key`].
+pub const RADIX_MIN: usize = 1024;
+
+/// Sorts unique words ascending with an LSD radix sort of 11-bit digits, skipping every digit
+/// that all words share. With `low_increasing` (the low halves are strictly increasing in the
+/// current order) only the high half is sorted: the passes are stable, so words with equal
+/// high halves keep their increasing low halves.
+fn radix_sort_words(keys: &mut Vec<u64>, low_increasing: bool) {
+    const BITS: u32 = 11;
+    const RADIX: usize = 1 << BITS;
+    let first = if low_increasing { 32 } else { 0 };
+    let digits: Vec<u32> = (first..64).step_by(BITS as usize).collect();
+    // One counting pass for every digit.
+    let mut counts = vec![[0u32; RADIX]; digits.len()];
+    for &w in keys.iter() {
+        for (c, &shift) in counts.iter_mut().zip(&digits) {
+            c[((w >> shift) as usize) & (RADIX - 1)] += 1;
+        }
+    }
+    let n = keys.len() as u32;
+    let mut buf = vec![0u64; keys.len()];
+    for (c, &shift) in counts.iter_mut().zip(&digits) {
+        if c.contains(&n) {
+            continue; // every word has the same digit here
+        }
+        let mut sum = 0u32;
+        for slot in c.iter_mut() {
+            let here = *slot;
+            *slot = sum;
+            sum += here;
+        }
+        for &w in keys.iter() {
+            let d = ((w >> shift) as usize) & (RADIX - 1);
+            buf[c[d] as usize] = w;
+            c[d] += 1;
+        }
+        std::mem::swap(keys, &mut buf);
     }
 }
 
@@ -305,6 +355,40 @@ mod tests {
         assert!(r(1.0, (0, 2, 9), 1.0, (1, 0, 0)));
         assert!(r(1.0, (1, 0, 9), 1.0, (1, 1, 0)));
         assert!(!r(1.0, (1, 1, 3), 1.0, (1, 1, 3)));
+    }
+
+    #[test]
+    fn radix_sort_equals_the_comparison_sort() {
+        let mut rng = sahara_geom::rng::Pcg32::new(7, 1);
+        for n in [RADIX_MIN, RADIX_MIN + 1, 5000, 70_000] {
+            // Few distinct values (many ties), signed zeros, infinities.
+            let xs: Vec<f32> = (0..n)
+                .map(|i| match i % 7 {
+                    0 => -0.0,
+                    1 => 0.0,
+                    2 => f32::INFINITY,
+                    3 => -f32::INFINITY,
+                    _ => ((rng.next_u32() % 50) as f32 - 25.0) * 0.5,
+                })
+                .collect();
+            let perm: Vec<u32> = {
+                let mut p: Vec<u32> = (0..n as u32).map(|i| i * 3 + 1).collect();
+                for i in (1..n).rev() {
+                    p.swap(i, rng.next_u32() as usize % (i + 1));
+                }
+                p
+            };
+            for increasing in [true, false] {
+                let id = |i: usize| if increasing { i as u32 * 3 } else { perm[i] };
+                let mut keys = Vec::new();
+                sort_by_key(&mut keys, n, |i| (xs[i], id(i)));
+                let mut want: Vec<u64> = (0..n)
+                    .map(|i| ((float_key(xs[i]) as u64) << 32) | id(i) as u64)
+                    .collect();
+                want.sort_unstable();
+                assert_eq!(keys, want, "n = {n}, ids increasing: {increasing}");
+            }
+        }
     }
 
     #[test]

@@ -171,6 +171,57 @@ pub fn sweep_axis<F: FnMut(SplitCandidate)>(
     node
 }
 
+/// The best candidate of one sorted order by Eq. 2, merged into `best` (the running best of
+/// the node, `n` primitives), as [`sweep_axis`] with a visitor keeping the best would find it,
+/// but without Eq. 2's division at most positions. Returns the bounds of the order.
+///
+/// Eq. 2 computed in floating point, `c(s) = t + s·c_i / A` with `s = A_l n_l + A_r n_r`, is
+/// monotone non-decreasing in `s` (every rounding step is). So once a position with score `s0`
+/// costs strictly more than the best so far, every later position with a score `s >= s0`
+/// costs strictly more than the best too (which only falls), and loses to it whatever the
+/// tie-break: it is skipped. `s0` carries over between the axes of a node. Nothing is
+/// approximated, so the chosen split is bit for bit the one of the full evaluation.
+#[inline]
+fn best_on_axis(
+    bounds: &[Aabb],
+    order: &[u32],
+    axis: usize,
+    areas: &mut [f32],
+    cost: &CostModel,
+    best: &mut SplitCandidate,
+    s0: &mut f64,
+) -> Aabb {
+    let n = order.len();
+    let item = |j: usize| &bounds[order[j] as usize];
+    let node = suffix_pass(n, item, areas);
+    let parent_area = node.half_area() as f64;
+    let total = n as f64;
+    let mut n_left = 0.0;
+    prefix_pass(n, item, areas, |j, left, right: &f32| {
+        n_left += 1.0;
+        let left_area = left.half_area() as f64;
+        let right_area = right.area();
+        let n_right = total - n_left;
+        let score = left_area * n_left + right_area * n_right;
+        if score >= *s0 {
+            return;
+        }
+        let c = SplitCandidate {
+            axis,
+            pos: j,
+            cost: cost.split_cost_counts(parent_area, left_area, n_left, right_area, n_right),
+            left_area,
+            right_area,
+        };
+        if c.better_than(best, n) {
+            *best = c;
+        } else if c.cost > best.cost {
+            *s0 = score;
+        }
+    });
+    node
+}
+
 /// The node's bounds and its greedy-best split by Eq. 2 (see [`SplitCandidate::better_than`]);
 /// for `n == 1` the split is a meaningless fallback.
 #[inline]
@@ -187,11 +238,8 @@ pub fn best_split(
         // node's bounds are those of the last axis's sweep, as sequentially.
         let axis_best = |axis: usize, areas: &mut [f32]| {
             let mut best = SplitCandidate::fallback(n);
-            let node = sweep_axis(bounds, orders[axis], axis, areas, cost, |c| {
-                if c.better_than(&best, n) {
-                    best = c;
-                }
-            });
+            let mut s0 = f64::INFINITY;
+            let node = best_on_axis(bounds, orders[axis], axis, areas, cost, &mut best, &mut s0);
             (node, best)
         };
         let (mut a1, mut a2) = (vec![0.0f32; n], vec![0.0f32; n]);
@@ -209,12 +257,9 @@ pub fn best_split(
     }
     let mut best = SplitCandidate::fallback(n);
     let mut node = Aabb::EMPTY;
+    let mut s0 = f64::INFINITY;
     for (axis, order) in orders.iter().enumerate() {
-        node = sweep_axis(bounds, order, axis, areas, cost, |c| {
-            if c.better_than(&best, n) {
-                best = c;
-            }
-        });
+        node = best_on_axis(bounds, order, axis, areas, cost, &mut best, &mut s0);
     }
     (node, best)
 }
@@ -273,18 +318,23 @@ pub fn partition_in_place(
     for &id in orders[axis][..pos].iter() {
         marks.set(id, true);
     }
-    // The marked ids to the front, the others (through `tmp`) behind them, in order.
+    // The marked ids to the front, the others (through `tmp`) behind them, in order. Without
+    // a branch on the flag (it is unpredictable on the orders not split): each id is written
+    // to both places and only the cursor of its side advances. A write to `order[l]` never
+    // overtakes the read (`l <= j`), and what an unmarked id leaves at `order[l]` is
+    // overwritten later (by a marked id, or by the copy of `tmp` when `l == pos`). `tmp` needs
+    // room for `n` ids: a marked id is written at `tmp[r]` with `r <= n - pos`.
     let part = |order: &mut [u32], tmp: &mut [u32]| {
+        let n = order.len();
+        let tmp = &mut tmp[..n];
         let (mut l, mut r) = (0, 0);
-        for j in 0..order.len() {
+        for j in 0..n {
             let id = order[j];
-            if marks.get(id) {
-                order[l] = id;
-                l += 1;
-            } else {
-                tmp[r] = id;
-                r += 1;
-            }
+            let m = marks.get(id) as usize;
+            order[l] = id;
+            tmp[r] = id;
+            l += m;
+            r += 1 - m;
         }
         debug_assert_eq!(l, pos);
         order[pos..].copy_from_slice(&tmp[..r]);
@@ -297,7 +347,7 @@ pub fn partition_in_place(
     };
     if a.len() >= PAR_AXES_THRESHOLD && rayon::current_num_threads() > 1 {
         // Both orders at once (the marks are only read), the second through its own buffer.
-        let mut tmp2 = vec![0u32; b.len() - pos];
+        let mut tmp2 = vec![0u32; b.len()];
         rayon::join(|| part(a, tmp), || part(b, &mut tmp2));
     } else {
         part(a, tmp);
@@ -305,5 +355,102 @@ pub fn partition_in_place(
     }
     for &id in orders[axis][..pos].iter() {
         marks.set(id, false);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::rng::Pcg32;
+
+    /// The pruned search of [`best_split`] picks exactly the candidate that rating every
+    /// position (with [`sweep_axis`]) picks, on boxes with many exact ties.
+    #[test]
+    fn pruned_best_split_equals_the_full_evaluation() {
+        let mut rng = Pcg32::new(3, 9);
+        for case in 0..300 {
+            // One node large enough for the three-axes-in-parallel path.
+            let n = if case == 0 {
+                PAR_AXES_THRESHOLD + 100
+            } else {
+                2 + (rng.next_u32() % 200) as usize
+            };
+            // Coordinates on a coarse grid (ties of areas and costs), some boxes flat.
+            let q = |rng: &mut Pcg32| (rng.next_u32() % 6) as f32 * 0.5;
+            let bounds: Vec<Aabb> = (0..n)
+                .map(|_| {
+                    let lo = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng));
+                    let size = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) * 0.5;
+                    Aabb::new(lo, lo + size)
+                })
+                .collect();
+            let centroids: Vec<Vec3A> = bounds.iter().map(|b| b.centroid()).collect();
+            let ids: Vec<u32> = (0..n as u32).collect();
+            let orders = sorted_orders(&centroids, &ids);
+            let cost = if case % 2 == 0 {
+                CostModel::default()
+            } else {
+                CostModel {
+                    traversal: 3.0,
+                    intersection: 1.0,
+                }
+            };
+            let mut areas = vec![0.0f32; n];
+            let mut full = SplitCandidate::fallback(n);
+            for (axis, order) in orders.iter().enumerate() {
+                sweep_axis(&bounds, order, axis, &mut areas, &cost, |c| {
+                    if c.better_than(&full, n) {
+                        full = c;
+                    }
+                });
+            }
+            let (_, pruned) = best_split(
+                &bounds,
+                [&orders[0], &orders[1], &orders[2]],
+                &mut areas,
+                &cost,
+            );
+            assert_eq!(pruned, full, "case {case}, n = {n}");
+        }
+    }
+
+    /// The in-place stable partition equals a plain filter of each order.
+    #[test]
+    fn partition_in_place_is_a_stable_partition() {
+        let mut rng = Pcg32::new(11, 2);
+        for case in 0..200 {
+            let n = if case == 0 {
+                PAR_AXES_THRESHOLD + 7
+            } else {
+                2 + (rng.next_u32() % 300) as usize
+            };
+            let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
+            for o in base.iter_mut() {
+                for i in (1..n).rev() {
+                    o.swap(i, rng.next_u32() as usize % (i + 1));
+                }
+            }
+            let axis = case % 3;
+            let pos = 1 + rng.next_u32() as usize % (n - 1);
+            let left: Vec<u32> = base[axis][..pos].to_vec();
+            let want: Vec<Vec<u32>> = base
+                .iter()
+                .map(|o| {
+                    let (mut l, r): (Vec<u32>, Vec<u32>) =
+                        o.iter().partition(|id| left.contains(id));
+                    l.extend(r);
+                    l
+                })
+                .collect();
+            let marks = Marks::new(n);
+            let mut tmp = vec![0u32; n];
+            let [a, b, c] = &mut base[..] else {
+                unreachable!()
+            };
+            let mut orders: [&mut [u32]; 3] = [a, b, c];
+            partition_in_place(&mut orders, axis, pos, &marks, &mut tmp);
+            assert_eq!(base, want, "case {case}, n = {n}, axis {axis}, pos {pos}");
+            assert!((0..n as u32).all(|id| !marks.get(id)), "marks left set");
+        }
     }
 }
