@@ -278,3 +278,37 @@ fn registry_entry() {
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     b.build(&input).unwrap().validate(&tris).unwrap();
 }
+
+#[test]
+fn registry_entry_exact() {
+    let e = registry::entries()
+        .into_iter()
+        .find(|e| e.name == "tsah-sbvh-exact")
+        .unwrap();
+    assert!(e.spatial);
+    assert!(!e.small_inputs_only);
+    assert_eq!(e.max_practical_triangles, Some(150_000));
+    let b = (e.make)();
+    assert_eq!(b.name(), "tsah-sbvh-exact");
+    // The registered builder is the exact preset: its SAH is never above sbvh's, and on a
+    // soup that needs spatial splits it is strictly below (the exact temporaries see splits
+    // that sbvh's greedy rule misses).
+    let mut tris = sized_soup(1200, 47, 10.0);
+    tris.extend(needs_spatial());
+    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    let bvh = b.build(&input).unwrap();
+    bvh.validate(&tris).unwrap();
+    let ours = sah(&bvh, &input.cost);
+    let reference = sah(&SbvhBuilder::default().build(&input).unwrap(), &input.cost);
+    let direct = sah(
+        &TsahSpatialBuilder::new(TsahSpatialConfig::EXACT)
+            .build(&input)
+            .unwrap(),
+        &input.cost,
+    );
+    assert_eq!(ours, direct, "the entry must build the EXACT preset");
+    assert!(
+        ours < reference,
+        "tsah-sbvh-exact {ours} vs sbvh {reference}"
+    );
+}

@@ -1,6 +1,6 @@
 //! The study's saved results in the eval report: the paper's claims table of `docs/study.md`
-//! and the newest dated study run under `docs/results/` are read, never recomputed (a full
-//! study takes hours; `cargo xtask study` is its own command).
+//! and the main table of the newest dated study run under `docs/results/` are read, never
+//! recomputed (a full study takes hours; `cargo xtask study` is its own command).
 
 use serde::Serialize;
 use std::path::Path;
@@ -15,6 +15,9 @@ pub struct SavedStudy {
     pub head: Vec<String>,
     /// Its rows.
     pub rows: Vec<Vec<String>>,
+    /// The saved run's main table (the section `## Main table` of its `README.md`, rendered
+    /// by `study::render_markdown`): head and rows; `None` when the run has none.
+    pub main: Option<(Vec<String>, Vec<Vec<String>>)>,
 }
 
 /// Reads the claims table from `<root>/docs/study.md` (the section `## Claims table`) and names
@@ -23,16 +26,28 @@ pub struct SavedStudy {
 pub fn load(root: &Path) -> Option<SavedStudy> {
     let text = std::fs::read_to_string(root.join("docs/study.md")).ok()?;
     let (head, rows) = claims_table(&text)?;
+    let run = newest_run(&root.join("docs/results"));
+    let main = run.as_ref().and_then(|r| {
+        let readme = std::fs::read_to_string(root.join(r).join("README.md")).ok()?;
+        table_after(&readme, "## Main table")
+    });
     Some(SavedStudy {
-        run: newest_run(&root.join("docs/results")),
+        run,
         head,
         rows,
+        main,
     })
 }
 
 /// The first markdown table after the heading `## Claims table`, before the next `## `.
 pub fn claims_table(md: &str) -> Option<(Vec<String>, Vec<Vec<String>>)> {
-    let mut lines = md.lines().skip_while(|l| l.trim() != "## Claims table");
+    table_after(md, "## Claims table")
+}
+
+/// The first markdown table after the line `heading`, before the next `## ` heading; `None`
+/// without one, or when a row's cell count differs from the head's.
+pub fn table_after(md: &str, heading: &str) -> Option<(Vec<String>, Vec<Vec<String>>)> {
+    let mut lines = md.lines().skip_while(|l| l.trim() != heading);
     lines.next()?;
     let table: Vec<&str> = lines
         .take_while(|l| !l.starts_with("## "))
@@ -77,6 +92,16 @@ mod tests {
         assert_eq!(head, ["claim", "ours"]);
         assert_eq!(rows, [["37%", "1.26"], ["subquadratic", "yes"]]);
         assert!(claims_table("# Study\n\n## Other\n\n| a |\n| - |\n| 1 |\n").is_none());
+        // A later section's table is not the main table, and a ragged row rejects the table.
+        let run = "# Run\n\n## Main table\n\nWords.\n\n| factor | gain |\n| --- | ---: |\n| cost | 1.04 |\n\n### Largest\n\n| x |\n| - |\n| 9 |\n";
+        let (head, rows) = table_after(run, "## Main table").unwrap();
+        assert_eq!(head, ["factor", "gain"]);
+        assert_eq!(rows, [["cost", "1.04"]]);
+        assert!(table_after(
+            "## Main table\n\n| a | b |\n| - | - |\n| 1 |\n",
+            "## Main table"
+        )
+        .is_none());
     }
 
     #[test]
@@ -86,5 +111,11 @@ mod tests {
         assert!(s.rows.len() >= 5, "{s:?}");
         let run = s.run.expect("a saved study run under docs/results");
         assert!(root.join(&run).join("study.csv").is_file(), "{run}");
+        // The saved run's main table: one row per factor the study varies.
+        let (head, rows) = s.main.expect("the saved run's README has a main table");
+        assert_eq!(head[0], "factor");
+        for factor in ["cost", "leaf", "breadth", "where", "temporary", "camera"] {
+            assert!(rows.iter().any(|r| r[0] == factor), "no {factor} row");
+        }
     }
 }
