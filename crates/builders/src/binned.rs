@@ -38,10 +38,10 @@
 //! ```
 
 use crate::registry::Entry;
-use crate::split::binned::{self as bins, Bin, RefBins};
+use crate::split::binned::{self as bins, RefBins};
 pub use crate::split::binned::{FillBackend, PrimRef};
 use crate::split::{
-    float_key, half_area, imbalance, ranks_before, BinMap, Suffix, PAR_CHUNK, PAR_NODE_THRESHOLD,
+    float_key, half_area, imbalance, ranks_before, BinMap, PAR_CHUNK, PAR_NODE_THRESHOLD,
 };
 use crate::topdown::{self, Step, TopDown};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
@@ -247,15 +247,22 @@ struct BinTask<'a> {
     depth: usize,
 }
 
-/// Scratch memory: the bins of three axes, one axis of them as [`Bin`]s and the suffix sweep;
+/// Scratch memory: the bins of three axes and the suffix sweep;
 /// for small nodes, the references sorted by bin and their suffix bounds.
 #[derive(Default)]
 struct Scratch {
     bins: RefBins,
-    axis: Vec<Bin>,
     right: Vec<(f32, u32)>,
-    small: Vec<u32>,
-    suffix: Vec<Aabb>,
+    sparse: SparseBins,
+}
+
+/// The bins of [`BinnedRule::best_plane_sparse`]: `3 × k`, axis-major, never reset (a bit
+/// mask per axis says which bins the current node filled).
+#[derive(Default)]
+struct SparseBins {
+    min: Vec<[f32; 4]>,
+    max: Vec<[f32; 4]>,
+    count: Vec<u32>,
 }
 
 /// The bounds of a set of primitives and of their centroids.
@@ -352,8 +359,8 @@ impl<'a> BinnedRule<'a> {
         if maps.iter().all(Option::is_none) {
             return None;
         }
-        if 2 * refs.len() <= k && refs.len() <= SMALL_MAX && k <= SMALL_MAX {
-            self.best_plane_small(refs, &maps, s)
+        if 2 * refs.len() <= k && k <= 64 {
+            self.best_plane_sparse(refs, &maps, s)
         } else {
             self.best_plane_binned(refs, &maps, s)
         }
@@ -374,103 +381,152 @@ impl<'a> BinnedRule<'a> {
             if map.is_none() {
                 continue;
             }
-            s.bins.axis_bins(axis, &mut s.axis);
-            bins::sweep_planes(&s.axis, &mut s.right, |plane, lb, lc, ra: &f32, rc| {
-                let cand = Rated {
-                    axis,
-                    plane,
-                    score: half_area(lb) * lc as f64 + ra.area() * rc as f64,
-                    imbalance: imbalance(lc, rc),
-                };
-                if best.as_ref().is_none_or(|b| cand.better_than(b)) {
-                    best = Some(cand);
-                }
-            });
+            s.bins
+                .sweep_axis(axis, &mut s.right, |plane, la, lc, ra, rc| {
+                    let cand = Rated {
+                        axis,
+                        plane,
+                        score: la * lc as f64 + ra as f64 * rc as f64,
+                        imbalance: imbalance(lc, rc),
+                    };
+                    if best.as_ref().is_none_or(|b| cand.better_than(b)) {
+                        best = Some(cand);
+                    }
+                });
         }
         let Rated { axis, plane, .. } = best?;
-        s.bins.axis_bins(axis, &mut s.axis);
-        let (left, right) = bins::sides(&s.axis, plane);
+        let (n_left, left, right) = s.bins.sides(axis, plane);
         Some(Plane {
             axis,
             plane,
             map: maps[axis].expect("a mapped axis"),
-            n_left: left.count as usize,
-            left: left.bounds,
-            right: right.bounds,
+            n_left,
+            left,
+            right,
         })
     }
 
-    /// [`best_plane`](Self::best_plane) for nodes with fewer primitives than half the bins:
-    /// most bins are empty, so instead of sweeping `K` bins the primitives are sorted by bin
-    /// and only the planes between two occupied bins are rated. A plane between occupied bins
-    /// `a < b` makes the same partition, with the same bounds and the same score, as every
-    /// plane `a + 1 ..= b` of the full sweep, of which the full sweep keeps the first
-    /// (`a + 1`, because ties need a strictly better rank to win): the result is identical
-    /// to the full sweep's.
-    fn best_plane_small(
+    /// [`best_plane`](Self::best_plane) for nodes with fewer primitives than half the bins
+    /// (and at most 64 bins): most bins are empty, so only the occupied ones are filled (a
+    /// bit mask per axis says which) and swept, and only the first plane after each occupied
+    /// bin is rated. Bit for bit [`best_plane_binned`](Self::best_plane_binned):
+    ///
+    /// * an occupied bin holds the same union in the same operand order (the first reference
+    ///   stored as is equals `min(+inf, r)`, `max(-inf, r)`), and an empty bin is the neutral
+    ///   element of the sweep's unions (every box of a build is finite), so skipping it changes
+    ///   no bit of the sides;
+    /// * the planes `a + 1 ..= b` between occupied bins `a < b` make the same partition with
+    ///   the same bounds and score, and the full sweep keeps the first of them (ties need a
+    ///   strictly better rank, and a later plane ranks after).
+    fn best_plane_sparse(
         &self,
         refs: &[PrimRef],
         maps: &[Option<BinMap>; 3],
         s: &mut Scratch,
     ) -> Option<Plane> {
-        let n = refs.len();
-        let mut best: Option<(Rated, BinMap)> = None;
-        s.suffix.resize(n.max(1), Aabb::EMPTY);
-        for (axis, map) in maps.iter().enumerate() {
-            let Some(map) = *map else { continue };
-            // (bin, position in the node) in one word; the order within a bin does not
-            // matter (bounds are unions, exact in any order).
-            s.small.clear();
-            s.small.extend(
-                refs.iter()
-                    .enumerate()
-                    .map(|(i, r)| ((map.bin(r.centroid_on(axis)) as u32) << 16) | i as u32),
-            );
-            s.small.sort_unstable();
-            let small = &s.small;
-            let bin_of = |i: usize| (small[i] >> 16) as usize;
-            let ref_of = |i: usize| refs[(small[i] & 0xffff) as usize].bounds();
-            let mut rb = Aabb::EMPTY;
-            for i in (1..n).rev() {
-                rb.grow_aabb(&ref_of(i));
-                s.suffix[i] = rb;
-            }
-            let mut lb = Aabb::EMPTY;
-            for i in 1..n {
-                lb.grow_aabb(&ref_of(i - 1));
-                if bin_of(i) == bin_of(i - 1) {
-                    continue;
+        let k = self.cfg.bins;
+        debug_assert!(k <= 64);
+        let sp = &mut s.sparse;
+        if sp.min.len() < 3 * k {
+            sp.min.resize(3 * k, bins::EMPTY_MIN);
+            sp.max.resize(3 * k, bins::EMPTY_MAX);
+            sp.count.resize(3 * k, 0);
+        }
+        let top = (k - 1) as f32;
+        let mut masks = [0u64; 3];
+        for r in refs {
+            let mut lo = r.min;
+            lo[3] = 0.0;
+            for (axis, map) in maps.iter().enumerate() {
+                let Some(map) = map else { continue };
+                let b = bins::bin_index(r.centroid_on(axis), map.min, map.scale, top);
+                let i = axis * k + b;
+                if masks[axis] & (1 << b) == 0 {
+                    masks[axis] |= 1 << b;
+                    sp.min[i] = lo;
+                    sp.max[i] = r.max;
+                    sp.count[i] = 1;
+                } else {
+                    sp.min[i] = bins::min4(sp.min[i], lo);
+                    sp.max[i] = bins::max4(sp.max[i], r.max);
+                    sp.count[i] += 1;
                 }
+            }
+        }
+        let mut best: Option<Rated> = None;
+        let mut occupied = [0u8; 64];
+        let mut right = [(0.0f32, 0u32); 64];
+        for (axis, &mask) in masks.iter().enumerate() {
+            if mask.count_ones() < 2 {
+                continue;
+            }
+            let base = axis * k;
+            let mut m = 0;
+            let mut bits = mask;
+            while bits != 0 {
+                occupied[m] = bits.trailing_zeros() as u8;
+                bits &= bits - 1;
+                m += 1;
+            }
+            let bin = |j: usize| base + occupied[j] as usize;
+            // Suffixes: right[j] is the union of occupied bins j.. (descending, as the sweep).
+            let (mut lo, mut hi, mut rc) = (bins::EMPTY_MIN, bins::EMPTY_MAX, 0u32);
+            for j in (1..m).rev() {
+                lo = bins::min4(lo, sp.min[bin(j)]);
+                hi = bins::max4(hi, sp.max[bin(j)]);
+                rc += sp.count[bin(j)];
+                right[j] = (bins::half_area4(&lo, &hi), rc);
+            }
+            let (mut lo, mut hi, mut lc) = (bins::EMPTY_MIN, bins::EMPTY_MAX, 0u32);
+            for j in 1..m {
+                lo = bins::min4(lo, sp.min[bin(j - 1)]);
+                hi = bins::max4(hi, sp.max[bin(j - 1)]);
+                lc += sp.count[bin(j - 1)];
+                let (ra, rc) = right[j];
                 let cand = Rated {
                     axis,
-                    plane: bin_of(i - 1) + 1,
-                    score: half_area(&lb) * i as f64 + half_area(&s.suffix[i]) * (n - i) as f64,
-                    imbalance: imbalance(i, n - i),
+                    plane: occupied[j - 1] as usize + 1,
+                    score: bins::half_area4(&lo, &hi) as f64 * lc as f64 + ra as f64 * rc as f64,
+                    imbalance: imbalance(lc as usize, rc as usize),
                 };
-                if best.as_ref().is_none_or(|(b, _)| cand.better_than(b)) {
-                    best = Some((cand, map));
+                if best.as_ref().is_none_or(|b| cand.better_than(b)) {
+                    best = Some(cand);
                 }
             }
         }
-        let (Rated { axis, plane, .. }, map) = best?;
-        let mut left = Aabb::EMPTY;
-        let mut right = Aabb::EMPTY;
+        let Rated { axis, plane, .. } = best?;
+        let (mut l, mut r) = (
+            (bins::EMPTY_MIN, bins::EMPTY_MAX),
+            (bins::EMPTY_MIN, bins::EMPTY_MAX),
+        );
         let mut n_left = 0;
-        for r in refs {
-            if map.bin(r.centroid_on(axis)) < plane {
-                left.grow_aabb(&r.bounds());
-                n_left += 1;
+        let mut bits = masks[axis];
+        while bits != 0 {
+            let b = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let i = axis * k + b;
+            let side = if b < plane {
+                n_left += sp.count[i] as usize;
+                &mut l
             } else {
-                right.grow_aabb(&r.bounds());
-            }
+                &mut r
+            };
+            side.0 = bins::min4(side.0, sp.min[i]);
+            side.1 = bins::max4(side.1, sp.max[i]);
         }
+        let aabb = |(lo, hi): ([f32; 4], [f32; 4])| {
+            Aabb::new(
+                Vec3A::new(lo[0], lo[1], lo[2]),
+                Vec3A::new(hi[0], hi[1], hi[2]),
+            )
+        };
         Some(Plane {
             axis,
             plane,
-            map,
+            map: maps[axis].expect("a mapped axis"),
             n_left,
-            left,
-            right,
+            left: aabb(l),
+            right: aabb(r),
         })
     }
 
@@ -641,10 +697,6 @@ fn partition_par(refs: &mut [PrimRef], p: &Plane) -> Option<(usize, Aabb, Aabb)>
 /// thread).
 const PAR_PARTITION_THRESHOLD: usize = 4 * PAR_NODE_THRESHOLD;
 
-/// Nodes of at most this many references (and bin counts up to it) may take the sorted
-/// small-node path (bin and position share one `u32` key).
-const SMALL_MAX: usize = 1 << 16;
-
 impl<'a> TopDown for BinnedRule<'a> {
     type Task = BinTask<'a>;
     type Scratch = Scratch;
@@ -781,13 +833,14 @@ mod tests {
         let tris: Vec<Triangle> = (0..64)
             .map(|i| {
                 // Coarse positions so that several centroids share bins and planes tie.
-                let o = Vec3A::new(rng.below(6) as f32, rng.below(3) as f32, (i % 2) as f32);
+                let z = [0.0, -0.0, 1.0][i % 3];
+                let o = Vec3A::new(rng.below(6) as f32, rng.below(3) as f32, z);
                 let s = 0.25 * (1 + rng.below(3)) as f32;
                 Triangle::new(o, o + Vec3A::X * s, o + Vec3A::Y * s)
             })
             .collect();
         let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-        for bins in [16, 32, 128] {
+        for bins in [16, 32, 64] {
             let cfg = BinnedConfig::with_bins(bins);
             let rule = BinnedRule::new(&input, &cfg, FillBackend::Simd);
             let mut s = Scratch::default();
@@ -797,14 +850,21 @@ mod tests {
                 let prims = rule.refs_of(&prims);
                 let cb = bounds_of(&prims).centroids;
                 let maps = bins::maps(&cb, bins);
-                let a = rule.best_plane_small(&prims, &maps, &mut s);
+                let a = rule.best_plane_sparse(&prims, &maps, &mut s);
                 let b = rule.best_plane_binned(&prims, &maps, &mut s);
                 match (a, b) {
                     (None, None) => {}
                     (Some(a), Some(b)) => {
                         assert_eq!((a.axis, a.plane, a.n_left), (b.axis, b.plane, b.n_left));
-                        assert_eq!(a.left, b.left);
-                        assert_eq!(a.right, b.right);
+                        // Bit for bit (signed zeros included), not only `==`.
+                        let bits = |b: &Aabb| {
+                            (
+                                b.min.to_array().map(f32::to_bits),
+                                b.max.to_array().map(f32::to_bits),
+                            )
+                        };
+                        assert_eq!(bits(&a.left), bits(&b.left));
+                        assert_eq!(bits(&a.right), bits(&b.right));
                     }
                     _ => panic!("one path found a plane, the other did not"),
                 }

@@ -270,6 +270,59 @@ fn max_lane(a: f32, b: f32) -> f32 {
     }
 }
 
+/// The lower corner of an empty box, as [`RefBins`] stores it.
+pub(crate) const EMPTY_MIN: [f32; 4] = [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0];
+/// The upper corner of an empty box, as [`RefBins`] stores it.
+pub(crate) const EMPTY_MAX: [f32; 4] =
+    [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY, 0.0];
+
+/// Lane-wise [`min_lane`] (what `Aabb::grow_aabb` computes for the lower corner).
+#[inline(always)]
+pub(crate) fn min4(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_min_ps};
+        // SAFETY: `[f32; 4]` and `__m128` are both 16 plain bytes; SSE2 is part of the
+        // x86-64 baseline, and `minps` is `min_lane` lane by lane.
+        unsafe {
+            let into = |v: [f32; 4]| std::mem::transmute::<[f32; 4], __m128>(v);
+            std::mem::transmute::<__m128, [f32; 4]>(_mm_min_ps(into(a), into(b)))
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    std::array::from_fn(|l| min_lane(a[l], b[l]))
+}
+
+/// Lane-wise [`max_lane`] (what `Aabb::grow_aabb` computes for the upper corner).
+#[inline(always)]
+pub(crate) fn max4(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_max_ps};
+        // SAFETY: as in `min4`; `maxps` is `max_lane` lane by lane.
+        unsafe {
+            let into = |v: [f32; 4]| std::mem::transmute::<[f32; 4], __m128>(v);
+            std::mem::transmute::<__m128, [f32; 4]>(_mm_max_ps(into(a), into(b)))
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    std::array::from_fn(|l| max_lane(a[l], b[l]))
+}
+
+/// The bin of centroid coordinate `c` as [`RefBins::fill`] computes it (both backends):
+/// `min(max((c - lo) * scale, 0), top)` truncated, with SSE's min/max semantics.
+#[inline(always)]
+pub(crate) fn bin_index(c: f32, lo: f32, scale: f32, top: f32) -> usize {
+    min_lane(max_lane((c - lo) * scale, 0.0), top) as usize
+}
+
+/// `Aabb::half_area` of the box with these corners (the same operations in the same order).
+#[inline(always)]
+pub(crate) fn half_area4(lo: &[f32; 4], hi: &[f32; 4]) -> f32 {
+    let (x, y, z) = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    x * y + y * z + z * x
+}
+
 impl RefBins {
     /// Empty storage (it grows at the first fill).
     pub fn new() -> Self {
@@ -284,13 +337,9 @@ impl RefBins {
     fn reset(&mut self, k: usize) {
         self.k = k;
         self.min.clear();
-        self.min
-            .resize(3 * k, [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0]);
+        self.min.resize(3 * k, EMPTY_MIN);
         self.max.clear();
-        self.max.resize(
-            3 * k,
-            [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY, 0.0],
-        );
+        self.max.resize(3 * k, EMPTY_MAX);
         self.count.clear();
         self.count.resize(3 * k, 0);
     }
@@ -311,6 +360,78 @@ impl RefBins {
     pub fn axis_bins(&self, axis: usize, out: &mut Vec<Bin>) {
         out.clear();
         out.extend((axis * self.k..(axis + 1) * self.k).map(|i| self.bin(i)));
+    }
+
+    /// The planes `1..k` of axis `axis`, straight from the bins: the suffix (right side) right
+    /// to left into `right[1..k]` (half area as `f32`, count), then `visit(plane, left_area,
+    /// n_left, right_area, n_right)` left to right for every plane with items on both sides.
+    ///
+    /// Bit for bit [`sweep_planes`] over [`axis_bins`](Self::axis_bins) with `S = f32` (the
+    /// same unions in the same operand order, the same `f32` half areas, the left one widened
+    /// to `f64`), without copying the bins out: at the many small nodes of a build, those
+    /// copies cost more than the fill.
+    #[inline]
+    pub fn sweep_axis(
+        &self,
+        axis: usize,
+        right: &mut [(f32, u32)],
+        mut visit: impl FnMut(usize, f64, usize, f32, usize),
+    ) {
+        let k = self.k;
+        let base = axis * k;
+        let (mins, maxs, counts) = (
+            &self.min[base..base + k],
+            &self.max[base..base + k],
+            &self.count[base..base + k],
+        );
+        let right = &mut right[..k];
+        let mut lo = EMPTY_MIN;
+        let mut hi = EMPTY_MAX;
+        let mut rc = 0u32;
+        for i in (1..k).rev() {
+            lo = min4(lo, mins[i]);
+            hi = max4(hi, maxs[i]);
+            rc += counts[i];
+            right[i] = (half_area4(&lo, &hi), rc);
+        }
+        let mut lo = EMPTY_MIN;
+        let mut hi = EMPTY_MAX;
+        let mut lc = 0u32;
+        for i in 1..k {
+            lo = min4(lo, mins[i - 1]);
+            hi = max4(hi, maxs[i - 1]);
+            lc += counts[i - 1];
+            let (ra, rc) = right[i];
+            if lc == 0 || rc == 0 {
+                continue;
+            }
+            visit(i, half_area4(&lo, &hi) as f64, lc as usize, ra, rc as usize);
+        }
+    }
+
+    /// The count and bounds of the items in bins `< plane` of axis `axis`, and the bounds of
+    /// the others: bit for bit [`sides`] over [`axis_bins`](Self::axis_bins).
+    pub fn sides(&self, axis: usize, plane: usize) -> (usize, Aabb, Aabb) {
+        let k = self.k;
+        let base = axis * k;
+        let union = |range: std::ops::Range<usize>| {
+            let mut lo = EMPTY_MIN;
+            let mut hi = EMPTY_MAX;
+            let mut n = 0u32;
+            for i in range {
+                lo = min4(lo, self.min[base + i]);
+                hi = max4(hi, self.max[base + i]);
+                n += self.count[base + i];
+            }
+            let b = Aabb::new(
+                Vec3A::new(lo[0], lo[1], lo[2]),
+                Vec3A::new(hi[0], hi[1], hi[2]),
+            );
+            (n as usize, b)
+        };
+        let (n_left, left) = union(0..plane);
+        let (_, right) = union(plane..k);
+        (n_left, left, right)
     }
 
     /// Fills the bins with `refs` by their centroids (`k` bins per axis, the axes without a
@@ -449,6 +570,73 @@ impl RefBins {
                         _mm_storeu_ps(pmax, _mm_max_ps(_mm_loadu_ps(pmax), mx));
                         *counts.get_unchecked_mut(i) += 1;
                     }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sahara_geom::rng::Pcg32;
+
+    /// The direct sweep and sides of [`RefBins`] are bit for bit those of [`sweep_planes`] and
+    /// [`sides`] over copied-out [`Bin`]s, signed zeros and empty bins included.
+    #[test]
+    fn direct_sweep_equals_the_sweep_over_copied_bins() {
+        let mut rng = Pcg32::new(11, 12);
+        let coord = |rng: &mut Pcg32| match rng.below(5) {
+            0 => 0.0,
+            1 => -0.0,
+            _ => rng.below(9) as f32 * 0.25 - 1.0,
+        };
+        for case in 0..300 {
+            let n = 1 + rng.below(60) as usize;
+            let refs: Vec<PrimRef> = (0..n)
+                .map(|i| {
+                    let a = Vec3A::new(coord(&mut rng), coord(&mut rng), coord(&mut rng));
+                    let e = Vec3A::new(coord(&mut rng), coord(&mut rng), coord(&mut rng)).abs();
+                    PrimRef::new(&Aabb::new(a, a + e), i as u32)
+                })
+                .collect();
+            let mut cb = Aabb::EMPTY;
+            for r in &refs {
+                cb.grow(r.centroid());
+            }
+            let k = [2, 5, 8, 32][case % 4];
+            let m = maps(&cb, k);
+            let mut bins = RefBins::new();
+            bins.fill(k, &m, &refs, FillBackend::Simd);
+            let mut copied = Vec::new();
+            let mut right_a = vec![(0.0f32, 0u32); k];
+            let mut right_b = vec![(0.0f32, 0u32); k];
+            for axis in 0..3 {
+                let mut direct = Vec::new();
+                bins.sweep_axis(axis, &mut right_a, |p, la, lc, ra, rc| {
+                    direct.push((p, la.to_bits(), lc, ra.to_bits(), rc));
+                });
+                bins.axis_bins(axis, &mut copied);
+                let mut reference = Vec::new();
+                sweep_planes(&copied, &mut right_b, |p, lb, lc, ra: &f32, rc| {
+                    reference.push((p, (lb.half_area() as f64).to_bits(), lc, ra.to_bits(), rc));
+                });
+                assert_eq!(direct, reference, "case {case}, axis {axis}");
+                for plane in 1..k {
+                    let (l, r) = sides(&copied, plane);
+                    let (nl, lb, rb) = bins.sides(axis, plane);
+                    let bits = |b: &Aabb| {
+                        (
+                            b.min.to_array().map(f32::to_bits),
+                            b.max.to_array().map(f32::to_bits),
+                        )
+                    };
+                    assert_eq!(
+                        nl, l.count as usize,
+                        "case {case}, axis {axis}, plane {plane}"
+                    );
+                    assert_eq!(bits(&lb), bits(&l.bounds), "case {case}, plane {plane}");
+                    assert_eq!(bits(&rb), bits(&r.bounds), "case {case}, plane {plane}");
                 }
             }
         }
