@@ -433,13 +433,27 @@ impl<'a> BinnedRule<'a> {
             sp.count.resize(3 * k, 0);
         }
         let top = (k - 1) as f32;
+        let lanes = |f: fn(&BinMap) -> f32| -> [f32; 4] {
+            std::array::from_fn(|a| {
+                if a < 3 {
+                    maps[a].as_ref().map_or(0.0, f)
+                } else {
+                    0.0
+                }
+            })
+        };
+        let (lo4, scale4) = (lanes(|m| m.min), lanes(|m| m.scale));
+        let on = maps.map(|m| m.is_some());
         let mut masks = [0u64; 3];
         for r in refs {
             let mut lo = r.min;
             lo[3] = 0.0;
-            for (axis, map) in maps.iter().enumerate() {
-                let Some(map) = map else { continue };
-                let b = bins::bin_index(r.centroid_on(axis), map.min, map.scale, top);
+            let idx = bins::bin_indices(r, lo4, scale4, top);
+            for axis in 0..3 {
+                if !on[axis] {
+                    continue;
+                }
+                let b = idx[axis] as usize;
                 let i = axis * k + b;
                 if masks[axis] & (1 << b) == 0 {
                     masks[axis] |= 1 << b;

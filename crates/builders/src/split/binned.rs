@@ -309,11 +309,42 @@ pub(crate) fn max4(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
     std::array::from_fn(|l| max_lane(a[l], b[l]))
 }
 
-/// The bin of centroid coordinate `c` as [`RefBins::fill`] computes it (both backends):
-/// `min(max((c - lo) * scale, 0), top)` truncated, with SSE's min/max semantics.
+/// The bins of a reference's centroid on the three axes as [`RefBins::fill`] computes them
+/// (both backends): `min(max((c - lo) * scale, 0), top)` truncated lane by lane, with
+/// `c = (min + max) * 0.5` (an axis with `scale` 0 gets bin 0).
 #[inline(always)]
-pub(crate) fn bin_index(c: f32, lo: f32, scale: f32, top: f32) -> usize {
-    min_lane(max_lane((c - lo) * scale, 0.0), top) as usize
+pub(crate) fn bin_indices(r: &PrimRef, lo: [f32; 4], scale: [f32; 4], top: f32) -> [i32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the loads read a `PrimRef`'s 16-byte
+        // aligned corners and two `[f32; 4]`s, the store writes a `[i32; 4]`. The operations
+        // are those of `fill_sse2`, in its order.
+        unsafe {
+            let xyz = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
+            let mn = _mm_and_ps(_mm_load_ps(r.min.as_ptr()), xyz);
+            let c = _mm_mul_ps(
+                _mm_add_ps(mn, _mm_load_ps(r.max.as_ptr())),
+                _mm_set1_ps(0.5),
+            );
+            let v = _mm_mul_ps(
+                _mm_sub_ps(c, _mm_loadu_ps(lo.as_ptr())),
+                _mm_loadu_ps(scale.as_ptr()),
+            );
+            let v = _mm_min_ps(_mm_max_ps(v, _mm_setzero_ps()), _mm_set1_ps(top));
+            let mut out = [0i32; 4];
+            _mm_storeu_si128(out.as_mut_ptr().cast(), _mm_cvttps_epi32(v));
+            out
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    std::array::from_fn(|a| {
+        if a == 3 {
+            return 0;
+        }
+        let c = (r.min[a] + r.max[a]) * 0.5;
+        min_lane(max_lane((c - lo[a]) * scale[a], 0.0), top) as i32
+    })
 }
 
 /// `Aabb::half_area` of the box with these corners (the same operations in the same order).
