@@ -347,10 +347,24 @@ pub fn sweep_cost(
     max_leaf_size: usize,
     scratch: &mut SweepScratch,
 ) -> SubtreeCost {
+    sweep_cost_with_top_levels(bounds, orders, marks, cost, max_leaf_size, scratch).0
+}
+
+/// [`sweep_cost`], and the costs of the top levels of the tree (see
+/// [`topdown::cost_with_top_levels`]): a node's split there is its subset's greedy split by
+/// Eq. 2, so its children's costs are the costs of the temporaries of that split's sides.
+pub fn sweep_cost_with_top_levels(
+    bounds: &[Aabb],
+    orders: [&mut [u32]; 3],
+    marks: &Marks,
+    cost: &CostModel,
+    max_leaf_size: usize,
+    scratch: &mut SweepScratch,
+) -> (SubtreeCost, topdown::TopLevels) {
     let n = orders[0].len();
     assert!(orders[1].len() == n && orders[2].len() == n);
     if n == 0 {
-        return SubtreeCost::ZERO;
+        return (SubtreeCost::ZERO, topdown::TopLevels::NONE);
     }
     if scratch.tmp.len() < n {
         scratch.tmp.resize(n, 0);
@@ -368,5 +382,5 @@ pub fn sweep_cost(
         tmp: &mut scratch.tmp[..n],
         areas: &mut scratch.areas[..n],
     };
-    topdown::cost(&rule, job, cost, &mut ())
+    topdown::cost_with_top_levels(&rule, job, cost, &mut ())
 }

@@ -357,6 +357,113 @@ pub fn cost<H: TopDown>(
     cost_rec(hook, task, cost, scratch, 0)
 }
 
+/// Levels of a subtree whose node costs [`cost_with_top_levels`] records.
+pub const TOP_LEVELS: usize = 4;
+const TOP_NODES: usize = (1 << TOP_LEVELS) - 1;
+
+/// The costs of the nodes in the top [`TOP_LEVELS`] levels of a subtree that [`cost`]
+/// computed on the way (heap order: node `i`'s children are `2i + 1` and `2i + 2`), with the
+/// size of each split node's left child: enough to know, without building them again, what
+/// the subtrees of the root's children, grandchildren... cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TopLevels {
+    /// `(c(T), size of the left child)` of each node (`0` for a leaf), `None` below the tree.
+    nodes: [Option<(SubtreeCost, usize)>; TOP_NODES],
+}
+
+/// The split of a subtree's root: the size of its left child and the costs of both children.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RootSplit {
+    /// References of the left child ([`TopDown::size`]).
+    pub left_len: usize,
+    /// `c(T)` of the left child's subtree.
+    pub left: SubtreeCost,
+    /// `c(T)` of the right child's subtree.
+    pub right: SubtreeCost,
+}
+
+impl TopLevels {
+    /// Nothing recorded.
+    pub const NONE: TopLevels = TopLevels {
+        nodes: [None; TOP_NODES],
+    };
+
+    /// The root's split, when the root was split.
+    pub fn root_split(&self) -> Option<RootSplit> {
+        let (_, left_len) = self.nodes[0]?;
+        if left_len == 0 {
+            return None;
+        }
+        Some(RootSplit {
+            left_len,
+            left: self.nodes[1]?.0,
+            right: self.nodes[2]?.0,
+        })
+    }
+
+    /// The levels of the root's left (`side` 0) or right (`side` 1) child's subtree (one level
+    /// fewer).
+    pub fn child(&self, side: usize) -> TopLevels {
+        let mut out = TopLevels::NONE;
+        for level in 0..TOP_LEVELS - 1 {
+            let width = 1 << level;
+            for k in 0..width {
+                out.nodes[width - 1 + k] = self.nodes[(2 * width - 1) + side * width + k];
+            }
+        }
+        out
+    }
+}
+
+/// [`cost`], and the costs of the nodes of the top [`TOP_LEVELS`] levels of the tree the rule
+/// builds: the very values [`cost`] combines (the same calls in the same order), so a caller
+/// can reuse them where it would cost the same subtrees again.
+pub fn cost_with_top_levels<H: TopDown>(
+    hook: &H,
+    task: H::Task,
+    cost: &CostModel,
+    scratch: &mut H::Scratch,
+) -> (SubtreeCost, TopLevels) {
+    let mut top = TopLevels::NONE;
+    let c = cost_top(hook, task, cost, scratch, 0, 0, &mut top);
+    (c, top)
+}
+
+/// [`cost_rec`] recording the node of heap index `index` at `depth` (and its subtree's top
+/// levels) in `top`.
+fn cost_top<H: TopDown>(
+    hook: &H,
+    task: H::Task,
+    cost: &CostModel,
+    scratch: &mut H::Scratch,
+    depth: usize,
+    index: usize,
+    top: &mut TopLevels,
+) -> SubtreeCost {
+    if depth >= TOP_LEVELS {
+        return cost_rec(hook, task, cost, scratch, depth);
+    }
+    match hook.split(task, scratch) {
+        Step::Leaf { bounds, task } => {
+            let v = leaf_value(hook, &bounds, &task, cost);
+            top.nodes[index] = Some((v, 0));
+            v
+        }
+        Step::Split {
+            bounds,
+            left,
+            right,
+        } => {
+            let left_len = hook.size(&left);
+            let l = cost_top(hook, left, cost, scratch, depth + 1, 2 * index + 1, top);
+            let r = cost_top(hook, right, cost, scratch, depth + 1, 2 * index + 2, top);
+            let v = inner_value(cost, half_area(&bounds), &l, &r);
+            top.nodes[index] = Some((v, left_len));
+            v
+        }
+    }
+}
+
 /// Levels of [`cost`] that recurse on the call stack.
 pub const COST_RECURSION: usize = 48;
 
@@ -448,6 +555,86 @@ fn cost_iterative<H: TopDown>(
 mod tests {
     use super::*;
     use sahara_geom::Vec3A;
+
+    /// Halves a row of unit boxes (odd rows leave the extra box right), down to single boxes.
+    struct Halve;
+
+    impl TopDown for Halve {
+        type Task = (u32, u32);
+        type Scratch = ();
+
+        fn size(&self, t: &(u32, u32)) -> usize {
+            (t.1 - t.0) as usize
+        }
+
+        fn split(&self, t: (u32, u32), _: &mut ()) -> Step<(u32, u32)> {
+            let bounds = Aabb::new(
+                Vec3A::new(t.0 as f32, 0.0, 0.0),
+                Vec3A::new(t.1 as f32, 1.0 + t.0 as f32 * 0.01, 1.0),
+            );
+            if t.1 - t.0 == 1 {
+                Step::Leaf { bounds, task: t }
+            } else {
+                let mid = t.0 + (t.1 - t.0) / 2;
+                Step::Split {
+                    bounds,
+                    left: (t.0, mid),
+                    right: (mid, t.1),
+                }
+            }
+        }
+
+        fn leaf_refs(&self, t: &(u32, u32), out: &mut Vec<u32>) {
+            out.extend(t.0..t.1);
+        }
+    }
+
+    /// The top levels hold, bit for bit, what [`cost`] computes for each subtree, and
+    /// `child` descends to a child's own top levels.
+    #[test]
+    fn top_levels_are_the_subtrees_costs() {
+        let cost = CostModel::default();
+        for n in [1u32, 2, 3, 7, 8, 13, 40] {
+            let (c, top) = cost_with_top_levels(&Halve, (0, n), &cost, &mut ());
+            assert_eq!(
+                c.cost.to_bits(),
+                cost_fn(&Halve, (0, n)).cost.to_bits(),
+                "n = {n}"
+            );
+            // Walk two levels down the left and right children and compare with fresh costs.
+            let mut stack = vec![((0u32, n), top, 0usize)];
+            while let Some(((a, b), t, level)) = stack.pop() {
+                let fresh = cost_fn(&Halve, (a, b));
+                let (rec, left_len) = t.nodes[0].expect("recorded");
+                assert_eq!(rec.cost.to_bits(), fresh.cost.to_bits(), "({a}, {b})");
+                assert_eq!(rec.area.to_bits(), fresh.area.to_bits(), "({a}, {b})");
+                if b - a == 1 {
+                    assert_eq!(left_len, 0);
+                    assert!(t.root_split().is_none());
+                    continue;
+                }
+                let mid = a + (b - a) / 2;
+                assert_eq!(left_len, (mid - a) as usize);
+                let rs = t.root_split().expect("split root");
+                assert_eq!(
+                    rs.left.cost.to_bits(),
+                    cost_fn(&Halve, (a, mid)).cost.to_bits()
+                );
+                assert_eq!(
+                    rs.right.cost.to_bits(),
+                    cost_fn(&Halve, (mid, b)).cost.to_bits()
+                );
+                if level + 2 < TOP_LEVELS {
+                    stack.push(((a, mid), t.child(0), level + 1));
+                    stack.push(((mid, b), t.child(1), level + 1));
+                }
+            }
+        }
+
+        fn cost_fn(h: &Halve, t: (u32, u32)) -> SubtreeCost {
+            super::cost(h, t, &CostModel::default(), &mut ())
+        }
+    }
 
     /// Peels one unit box off the end of a row per level: a chain as deep as the row is long.
     struct Peel;

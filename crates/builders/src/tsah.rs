@@ -53,6 +53,7 @@ use sahara_bvh::Bvh;
 
 use crate::registry::Entry;
 use crate::sweep::{self, Marks, SplitCandidate, SubtreeCost, SweepScratch};
+use crate::topdown::{RootSplit, TopLevels};
 use crate::{BuildError, BuildInput, Configured, Strategy};
 use binned_cost::{binned_cost, BinnedScratch};
 use engine::{EngineParams, LocalNode, Rater};
@@ -294,8 +295,41 @@ impl Rater for TemporaryRater {
     type Scratch = TempScratch;
 
     fn rate(&self, node: &LocalNode, c: &SplitCandidate, sc: &mut TempScratch) -> f64 {
+        self.rate_hinted(node, c, sc).0
+    }
+
+    fn rate_hinted(
+        &self,
+        node: &LocalNode,
+        c: &SplitCandidate,
+        sc: &mut TempScratch,
+    ) -> (f64, [TopLevels; 2]) {
+        if self.temporary == Temporary::Sweep {
+            let ((l, lh), (r, rh)) = sweep_sides(node, c, &self.cost, self.max_leaf, sc);
+            let rating = self
+                .cost
+                .inner_cost(node.area, l.area, l.cost, r.area, r.cost);
+            return (rating, [lh, rh]);
+        }
+        (self.rate_other(node, c, sc), [TopLevels::NONE; 2])
+    }
+
+    fn rate_from_hint(&self, node: &LocalNode, hint: &RootSplit) -> Option<f64> {
+        // `rate_hinted` of the node's greedy candidate: its sides' sweep temporaries are the
+        // hint's two subtrees.
+        (self.temporary == Temporary::Sweep).then(|| {
+            let (l, r) = (&hint.left, &hint.right);
+            self.cost
+                .inner_cost(node.area, l.area, l.cost, r.area, r.cost)
+        })
+    }
+}
+
+impl TemporaryRater {
+    /// The rating with median or binned temporaries.
+    fn rate_other(&self, node: &LocalNode, c: &SplitCandidate, sc: &mut TempScratch) -> f64 {
         let (l, r) = match self.temporary {
-            Temporary::Sweep => sweep_sides(node, c, &self.cost, self.max_leaf, sc),
+            Temporary::Sweep => unreachable!("sweep temporaries are rated by `rate_hinted`"),
             Temporary::Median => {
                 let (lo, hi) = node.orders[c.axis].split_at(c.pos);
                 let mut side = |ids: &[u32]| {
@@ -340,7 +374,7 @@ pub(crate) fn sweep_sides(
     cost: &sahara_metrics::CostModel,
     max_leaf: usize,
     sc: &mut TempScratch,
-) -> (SubtreeCost, SubtreeCost) {
+) -> ((SubtreeCost, TopLevels), (SubtreeCost, TopLevels)) {
     let n = node.len();
     let TempScratch {
         marks,
@@ -369,7 +403,7 @@ pub(crate) fn sweep_sides(
     let marks = &*marks;
     let side = |o: &mut [Vec<u32>; 3], s: &mut SweepScratch| {
         let [a, b, c] = o;
-        sweep::sweep_cost(&node.bounds, [a, b, c], marks, cost, max_leaf, s)
+        sweep::sweep_cost_with_top_levels(&node.bounds, [a, b, c], marks, cost, max_leaf, s)
     };
     if n >= JOIN_SIDES {
         rayon::join(

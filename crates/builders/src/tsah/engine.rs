@@ -13,7 +13,7 @@ use sahara_geom::{Aabb, Vec3A};
 
 use crate::split::{offer, BinMap, Marks};
 use crate::sweep::{self, Greedy, Job, JobStorage, SplitCandidate};
-use crate::topdown::{self, Step, TopDown};
+use crate::topdown::{self, RootSplit, Step, TopDown, TopLevels};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput};
 
@@ -24,6 +24,45 @@ pub(crate) trait Rater: Sync {
     type Scratch: Default + Send;
     /// The rating of `cand` (a split of `node`'s sorted orders).
     fn rate(&self, node: &LocalNode, cand: &SplitCandidate, scratch: &mut Self::Scratch) -> f64;
+
+    /// [`rate`](Self::rate), and for each side of `cand` a hint for that side's own rating
+    /// when it becomes a node: the top levels of the side's temporary subtree (if the rater
+    /// builds one). By default no hints.
+    fn rate_hinted(
+        &self,
+        node: &LocalNode,
+        cand: &SplitCandidate,
+        scratch: &mut Self::Scratch,
+    ) -> (f64, [TopLevels; 2]) {
+        (self.rate(node, cand, scratch), [TopLevels::NONE; 2])
+    }
+
+    /// The rating of `node`'s greedy candidate (its best split by Eq. 2) from the hint its
+    /// parent's rating left for it, bit for bit what [`rate`](Self::rate) would return, or
+    /// `None` when the rater cannot tell. By default `None`.
+    fn rate_from_hint(&self, _node: &LocalNode, _hint: &RootSplit) -> Option<f64> {
+        None
+    }
+}
+
+/// A node of the rated builder: its sorted orders and, where an ancestor's rating built a
+/// temporary subtree over exactly this node, the top levels of that temporary (see
+/// [`Rater::rate_hinted`]). The temporary's root is split by the same greedy rule as this
+/// node's greedy candidate, over the same boxes in the same orders, so its children's costs
+/// are that candidate's rating inputs: reusing them saves two temporaries per node. When
+/// the greedy candidate wins, its children inherit the temporary's next levels.
+pub(crate) struct Hinted<'a> {
+    job: Job<'a>,
+    hint: TopLevels,
+}
+
+impl<'a> From<Job<'a>> for Hinted<'a> {
+    fn from(job: Job<'a>) -> Self {
+        Self {
+            job,
+            hint: TopLevels::NONE,
+        }
+    }
 }
 
 /// Nodes at least this large rate their candidates in parallel; smaller ones rate them on the
@@ -89,27 +128,41 @@ pub(crate) fn build<R: Rater>(
         local_of: (0..input.len()).map(|_| AtomicU32::new(0)).collect(),
     };
     let mut storage = JobStorage::new(input.len(), input.centroids());
-    Ok(topdown::build(&rule, storage.root(), false))
+    Ok(topdown::build(&rule, storage.root().into(), false))
 }
 
 impl<'a, R: Rater> TopDown for Rated<'a, R> {
-    type Task = Job<'a>;
+    type Task = Hinted<'a>;
     type Scratch = R::Scratch;
 
-    fn size(&self, job: &Job<'a>) -> usize {
-        job.len()
+    fn size(&self, t: &Hinted<'a>) -> usize {
+        t.job.len()
     }
 
-    fn split(&self, job: Job<'a>, scratch: &mut R::Scratch) -> Step<Job<'a>> {
-        if job.len() <= self.params.greedy_below.max(1) {
-            self.greedy.decide(job)
+    fn split(&self, t: Hinted<'a>, scratch: &mut R::Scratch) -> Step<Hinted<'a>> {
+        if t.job.len() <= self.params.greedy_below.max(1) {
+            match self.greedy.decide(t.job) {
+                Step::Leaf { bounds, task } => Step::Leaf {
+                    bounds,
+                    task: task.into(),
+                },
+                Step::Split {
+                    bounds,
+                    left,
+                    right,
+                } => Step::Split {
+                    bounds,
+                    left: left.into(),
+                    right: right.into(),
+                },
+            }
         } else {
-            self.node(job, scratch)
+            self.node(t, scratch)
         }
     }
 
-    fn leaf_refs(&self, job: &Job<'a>, out: &mut Vec<u32>) {
-        out.extend_from_slice(job.orders[0]);
+    fn leaf_refs(&self, t: &Hinted<'a>, out: &mut Vec<u32>) {
+        out.extend_from_slice(t.job.orders[0]);
     }
 
     fn parallel_threshold(&self) -> usize {
@@ -221,12 +274,16 @@ fn bin_positions(order: &[u32], centroids: &[Vec3A], axis: usize, bins: usize) -
 
 impl<'a, R: Rater> Rated<'a, R> {
     /// One node of the paper's builder: candidates, ratings, leaf or split.
-    fn node(&self, job: Job<'a>, scratch: &mut R::Scratch) -> Step<Job<'a>> {
+    fn node(&self, t: Hinted<'a>, scratch: &mut R::Scratch) -> Step<Hinted<'a>> {
+        let Hinted { job, hint } = t;
         let g = &self.greedy;
         let n = job.len();
         if n == 1 {
             let bounds = g.bounds[job.orders[0][0] as usize];
-            return Step::Leaf { bounds, task: job };
+            return Step::Leaf {
+                bounds,
+                task: job.into(),
+            };
         }
         let orders = [&*job.orders[0], &*job.orders[1], &*job.orders[2]];
         let mut collector = Collector::new(&self.params.candidates, orders, self.centroids);
@@ -250,22 +307,40 @@ impl<'a, R: Rater> Rated<'a, R> {
         }
 
         let must_split = n > g.max_leaf;
-        let best = if must_split && cands.len() == 1 {
+        let (best, hints) = if must_split && cands.len() == 1 {
             // Nothing to compare: skip the ratings.
-            cands[0]
+            (cands[0], [TopLevels::NONE; 2])
         } else {
             let local = self.local_node(orders, &node_bounds);
-            let ratings: Vec<f64> = if n >= PAR_RATE {
+            // The greedy candidate's rating from the parent's temporary over this node, when
+            // there is one for exactly this split (its left side has the same size; the
+            // split itself is the same by construction, see `Hinted`).
+            let hinted = hint
+                .root_split()
+                .filter(|h| h.left_len == greedy.pos)
+                .and_then(|h| self.rater.rate_from_hint(&local, &h));
+            let rate = |c: &SplitCandidate, sc: &mut R::Scratch| match hinted {
+                Some(rating) if c.axis == greedy.axis && c.pos == greedy.pos => {
+                    debug_assert_eq!(
+                        rating.to_bits(),
+                        self.rater.rate(&local, c, sc).to_bits(),
+                        "a hinted rating differs from the rating"
+                    );
+                    // The candidate's sides are the temporary's children: their own top
+                    // levels are the hint's next ones.
+                    (rating, [hint.child(0), hint.child(1)])
+                }
+                _ => self.rater.rate_hinted(&local, c, sc),
+            };
+            let rated: Vec<(f64, [TopLevels; 2])> = if n >= PAR_RATE {
                 cands
                     .par_iter()
-                    .map_init(R::Scratch::default, |sc, c| self.rater.rate(&local, c, sc))
+                    .map_init(R::Scratch::default, |sc, c| rate(c, sc))
                     .collect()
             } else {
-                cands
-                    .iter()
-                    .map(|c| self.rater.rate(&local, c, scratch))
-                    .collect()
+                cands.iter().map(|c| rate(c, scratch)).collect()
             };
+            let ratings: Vec<f64> = rated.iter().map(|r| r.0).collect();
             let mut best = 0;
             for i in 1..cands.len() {
                 let a = SplitCandidate {
@@ -283,16 +358,22 @@ impl<'a, R: Rater> Rated<'a, R> {
             if !must_split && g.cost.leaf_cost(n) <= ratings[best] {
                 return Step::Leaf {
                     bounds: node_bounds,
-                    task: job,
+                    task: job.into(),
                 };
             }
-            cands[best]
+            (cands[best], rated[best].1)
         };
         let (left, right) = job.split(best.axis, best.pos, g.marks);
         Step::Split {
             bounds: node_bounds,
-            left,
-            right,
+            left: Hinted {
+                job: left,
+                hint: hints[0],
+            },
+            right: Hinted {
+                job: right,
+                hint: hints[1],
+            },
         }
     }
 
