@@ -315,9 +315,18 @@ impl<'a, R: Rater> Rated<'a, R> {
             // The greedy candidate's rating from the parent's temporary over this node, when
             // there is one for exactly this split (its left side has the same size; the
             // split itself is the same by construction, see `Hinted`).
+            // The temporary's root split is this node's greedy split only where Eq. 2 is
+            // finite: the sweep's pruning of positions (`best_split`) equals the full
+            // evaluation for a finite best, not where every cost overflows (denormal or huge
+            // boxes, which the hard cases have). The sides' sizes and areas must match too.
             let hinted = hint
                 .root_split()
-                .filter(|h| h.left_len == greedy.pos)
+                .filter(|h| {
+                    greedy.cost.is_finite()
+                        && h.left_len == greedy.pos
+                        && h.left.area == greedy.left_area
+                        && h.right.area == greedy.right_area
+                })
                 .and_then(|h| self.rater.rate_from_hint(&local, &h));
             let rate = |c: &SplitCandidate, sc: &mut R::Scratch| match hinted {
                 Some(rating) if c.axis == greedy.axis && c.pos == greedy.pos => {
