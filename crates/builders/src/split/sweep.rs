@@ -180,7 +180,11 @@ pub fn sweep_axis<F: FnMut(SplitCandidate)>(
 /// costs strictly more than the best so far, every later position with a score `s >= s0`
 /// costs strictly more than the best too (which only falls), and loses to it whatever the
 /// tie-break: it is skipped. `s0` carries over between the axes of a node. Nothing is
-/// approximated, so the chosen split is bit for bit the one of the full evaluation.
+/// approximated, so where the best cost is finite the chosen split is bit for bit the one of
+/// the full evaluation. Where Eq. 2 overflows to infinity at every position (boxes near the
+/// float range's ends: the hard cases), "strictly more" no longer separates the positions and
+/// the two may pick different splits of equal (infinite) cost; both trees are valid, and the
+/// builders only ever use this search (`tsah`'s reuse of temporaries checks finiteness).
 #[inline]
 fn best_on_axis(
     bounds: &[Aabb],
