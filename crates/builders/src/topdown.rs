@@ -108,6 +108,27 @@ pub enum Step<T> {
     },
 }
 
+impl<T> Step<T> {
+    /// The same decision over other tasks (`f` applied to each task).
+    pub fn map<U>(self, mut f: impl FnMut(T) -> U) -> Step<U> {
+        match self {
+            Step::Leaf { bounds, task } => Step::Leaf {
+                bounds,
+                task: f(task),
+            },
+            Step::Split {
+                bounds,
+                left,
+                right,
+            } => Step::Split {
+                bounds,
+                left: f(left),
+                right: f(right),
+            },
+        }
+    }
+}
+
 /// A top-down construction rule: what to do with one node. See the [module
 /// documentation](self) for what the driver does with it.
 ///

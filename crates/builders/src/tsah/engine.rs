@@ -141,21 +141,7 @@ impl<'a, R: Rater> TopDown for Rated<'a, R> {
 
     fn split(&self, t: Hinted<'a>, scratch: &mut R::Scratch) -> Step<Hinted<'a>> {
         if t.job.len() <= self.params.greedy_below.max(1) {
-            match self.greedy.decide(t.job) {
-                Step::Leaf { bounds, task } => Step::Leaf {
-                    bounds,
-                    task: task.into(),
-                },
-                Step::Split {
-                    bounds,
-                    left,
-                    right,
-                } => Step::Split {
-                    bounds,
-                    left: left.into(),
-                    right: right.into(),
-                },
-            }
+            self.greedy.decide(t.job).map(Hinted::from)
         } else {
             self.node(t, scratch)
         }
@@ -312,10 +298,8 @@ impl<'a, R: Rater> Rated<'a, R> {
             (cands[0], [TopLevels::NONE; 2])
         } else {
             let local = self.local_node(orders, &node_bounds);
-            // The greedy candidate's rating from the parent's temporary over this node, when
-            // there is one for exactly this split (its left side has the same size; the
-            // split itself is the same by construction, see `Hinted`).
-            // The temporary's root split is this node's greedy split only where Eq. 2 is
+            // The greedy candidate's rating from an ancestor's temporary over this node (see
+            // `Hinted`). Its root split is this node's greedy split only where Eq. 2 is
             // finite: the sweep's pruning of positions (`best_split`) equals the full
             // evaluation for a finite best, not where every cost overflows (denormal or huge
             // boxes, which the hard cases have). The sides' sizes and areas must match too.
