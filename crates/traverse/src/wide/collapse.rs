@@ -10,6 +10,7 @@ use super::{
 use sahara_bvh::Bvh;
 use sahara_geom::intersect::is_degenerate;
 use sahara_geom::{Aabb, Triangle};
+use std::mem::MaybeUninit;
 
 /// Most references in one wide leaf.
 const LEAF_MAX: usize = 4 * MAX_LEAF_PACKETS;
@@ -408,7 +409,7 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
         let mut c = Collapser::<W>::new(bvh, tris, &plan, Vec::new());
         let root = c.child(0);
         debug_assert!(c.work.is_empty());
-        (c.nodes, c.packets, root)
+        (c.nodes.into(), c.packets.into(), root)
     } else {
         let frag = fragment::<W>(bvh, tris, &plan, &refs, par.refs, 0);
         let (nodes, packets) = flatten(frag);
@@ -421,8 +422,8 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
     );
     let max_stack = stack_bound(&nodes, root);
     WideBvh {
-        nodes: nodes.into(),
-        packets: packets.into(),
+        nodes,
+        packets,
         root,
         root_bounds: bvh.nodes[0].bounds(),
         max_stack,
@@ -484,45 +485,82 @@ fn fragment<const W: usize>(
     }
 }
 
-/// The node and packet arrays of the whole tree from the root's fragment.
-fn flatten<const W: usize>(root: Frag<W>) -> (Vec<WideNode<W>>, Vec<TriPacket>) {
+/// The node and packet arrays of the whole tree from the root's fragment, written straight
+/// into their final memory: every fragment's block goes to the range the sequential collapse
+/// gives it, the fragments of large subtrees in parallel (disjoint ranges).
+fn flatten<const W: usize>(root: Frag<W>) -> (HugeSlice<WideNode<W>>, HugeSlice<TriPacket>) {
     if root.subs.is_empty() {
         // Built in one piece: local indices are the global ones.
-        return (root.nodes, root.packets);
-    }
-    fn count<const W: usize>(f: &Frag<W>) -> (usize, usize) {
-        f.subs
-            .iter()
-            .fold((f.nodes.len(), f.packets.len()), |(n, p), (_, s)| {
-                let (sn, sp) = count(s);
-                // A sub-fragment's own node fills a slot of its parent.
-                (n + sn - 1, p + sp)
-            })
+        return (root.nodes.into(), root.packets.into());
     }
     let (n_nodes, n_packets) = count(&root);
-    let mut nodes = Vec::with_capacity(n_nodes);
-    let mut packets = Vec::with_capacity(n_packets);
-    nodes.push(WideNode::EMPTY);
-    place(&root, 0, &mut nodes, &mut packets);
-    debug_assert_eq!((nodes.len(), packets.len()), (n_nodes, n_packets));
-    (nodes, packets)
+    // The root's own node is node 0, its block starts at node 1.
+    let own = relocate(&root.nodes[0], 1, 0);
+    // SAFETY: `place` writes every element of the slices it is given (`count` is the size of
+    // a fragment's block and of its packets, checked in debug builds), and node 0 is written
+    // here.
+    unsafe {
+        let mut packets = None;
+        let nodes = HugeSlice::from_init(n_nodes, |nodes| {
+            let (first, block) = nodes.split_at_mut(1);
+            first[0].write(own);
+            packets = Some(HugeSlice::from_init(n_packets, |packets| {
+                place(&root, 1, 0, block, packets);
+            }));
+        });
+        (nodes, packets.expect("written above"))
+    }
 }
 
-/// Appends fragment `f` (its own node into `slot`, its block at the end), then its
-/// sub-fragments.
+/// Nodes (its own one included) and packets of a fragment and its sub-fragments.
+fn count<const W: usize>(f: &Frag<W>) -> (usize, usize) {
+    f.subs
+        .iter()
+        .fold((f.nodes.len(), f.packets.len()), |(n, p), (_, s)| {
+            let (sn, sp) = count(s);
+            // A sub-fragment's own node fills a slot of its parent.
+            (n + sn - 1, p + sp)
+        })
+}
+
+/// Writes the block of fragment `f` (every node but its own, which its parent writes) at
+/// global node `base` and its packets at `pbase`, then its sub-fragments' blocks after it, in
+/// the order of the sequential collapse; sub-fragments in parallel. `nodes` and `packets` are
+/// exactly the ranges of the block and of the packets of `f` and its sub-fragments.
 fn place<const W: usize>(
     f: &Frag<W>,
-    slot: usize,
-    nodes: &mut Vec<WideNode<W>>,
-    packets: &mut Vec<TriPacket>,
+    base: usize,
+    pbase: usize,
+    nodes: &mut [MaybeUninit<WideNode<W>>],
+    packets: &mut [MaybeUninit<TriPacket>],
 ) {
-    let (base, pbase) = (nodes.len(), packets.len());
-    nodes[slot] = relocate(&f.nodes[0], base, pbase);
-    nodes.extend(f.nodes[1..].iter().map(|n| relocate(n, base, pbase)));
-    packets.extend_from_slice(&f.packets);
-    for (w, sub) in &f.subs {
-        place(sub, base + w - 1, nodes, packets);
+    debug_assert_eq!((nodes.len() + 1, packets.len()), count(f));
+    let own = f.nodes.len() - 1;
+    let (mine, mut rest) = nodes.split_at_mut(own);
+    for (out, n) in mine.iter_mut().zip(&f.nodes[1..]) {
+        out.write(relocate(n, base, pbase));
     }
+    let (pmine, mut prest) = packets.split_at_mut(f.packets.len());
+    for (out, p) in pmine.iter_mut().zip(&f.packets) {
+        out.write(*p);
+    }
+    let (mut b, mut pb) = (base + own, pbase + f.packets.len());
+    let mut jobs = Vec::with_capacity(f.subs.len());
+    for (w, sub) in &f.subs {
+        let (sn, sp) = count(sub);
+        // The sub-fragment's own node fills slot `w` of this fragment's block.
+        mine[w - 1].write(relocate(&sub.nodes[0], b, pb));
+        let (sub_nodes, r) = std::mem::take(&mut rest).split_at_mut(sn - 1);
+        let (sub_packets, pr) = std::mem::take(&mut prest).split_at_mut(sp);
+        rest = r;
+        prest = pr;
+        jobs.push((sub, b, pb, sub_nodes, sub_packets));
+        b += sn - 1;
+        pb += sp;
+    }
+    use rayon::prelude::*;
+    jobs.into_par_iter()
+        .for_each(|(sub, b, pb, n, p)| place(sub, b, pb, n, p));
 }
 
 /// A fragment's node with global indices: local node `j >= 1` is node `base + j - 1` (no

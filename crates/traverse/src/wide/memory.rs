@@ -50,7 +50,32 @@ impl<T: Copy> HugeSlice<T> {
     /// # Panics
     /// If the allocation fails (as `Vec` does) or its size overflows.
     pub(crate) fn from_slice(items: &[T]) -> Self {
-        let bytes = std::mem::size_of_val(items);
+        // SAFETY: the closure initialises all `items.len()` elements.
+        unsafe {
+            Self::from_init(items.len(), |out| {
+                // SAFETY: `out` holds `items.len()` values of `T`, does not overlap `items`,
+                // and `T: Copy`.
+                std::ptr::copy_nonoverlapping(items.as_ptr(), out.as_mut_ptr().cast(), items.len())
+            })
+        }
+    }
+
+    /// An array of `len` values written by `init` straight into the final (huge-page advised)
+    /// memory, with no intermediate copy: the wide collapse writes its fragments there in
+    /// parallel.
+    ///
+    /// # Safety
+    /// `init` must initialise every element of the slice it is given.
+    ///
+    /// # Panics
+    /// If the allocation fails or its size overflows; a panic of `init` leaks the memory.
+    pub(crate) unsafe fn from_init(
+        len: usize,
+        init: impl FnOnce(&mut [std::mem::MaybeUninit<T>]),
+    ) -> Self {
+        let bytes = len
+            .checked_mul(std::mem::size_of::<T>())
+            .expect("array too large");
         if bytes == 0 {
             return Self::empty();
         }
@@ -70,14 +95,13 @@ impl<T: Copy> HugeSlice<T> {
         if huge {
             advise_huge_pages(raw, size);
         }
-        // SAFETY: the allocation holds `items.len()` values of `T` (size and alignment above),
-        // does not overlap `items`, and `T: Copy`.
-        unsafe { std::ptr::copy_nonoverlapping(items.as_ptr(), ptr.as_ptr(), items.len()) };
-        Self {
-            ptr,
-            len: items.len(),
-            layout,
-        }
+        // SAFETY: the allocation holds `len` values of `T` (size and alignment above), not
+        // yet initialised, which `MaybeUninit` allows.
+        init(unsafe {
+            std::slice::from_raw_parts_mut(ptr.as_ptr().cast::<std::mem::MaybeUninit<T>>(), len)
+        });
+        // Every element is initialised now (the caller's contract).
+        Self { ptr, len, layout }
     }
 
     /// True when the array lies in memory aligned to a huge page (arrays of at least 1 MiB).
