@@ -356,8 +356,12 @@ pub fn partition_in_place(
         for j in 0..n {
             let id = order[j];
             let m = marks.get(id) as usize;
-            order[l] = id;
-            tmp[r] = id;
+            // SAFETY: `l + r == j < n` before the writes (each step advances one of them), and
+            // both slices hold `n` ids.
+            unsafe {
+                *order.get_unchecked_mut(l) = id;
+                *tmp.get_unchecked_mut(r) = id;
+            }
             l += m;
             r += 1 - m;
         }
