@@ -247,6 +247,29 @@ fn best_on_axis_scalar(
     node
 }
 
+/// [`best_split`] of a node of two primitives `p` and `q`: every axis's one candidate puts one
+/// of them on each side, so its score is `A_p + A_q` on every axis (in either order: `f64`
+/// addition commutes bit for bit, NaN included, and a one-box side's area is the box's own).
+/// The three candidates cost the same, and the tie goes to axis 0 ([`ranks_before`]); axes 1
+/// and 2 can change neither the best candidate nor, therefore, anything else. So only axis
+/// 0 is swept. The node's bounds are grown in the order the last axis's sweep grows them
+/// (which decides the sign of a zero bound), as [`best_split`] returns them.
+#[inline]
+fn best_split_of_two(
+    bounds: &[Aabb],
+    orders: [&[u32]; 3],
+    areas: &mut [f32],
+    cost: &CostModel,
+) -> (Aabb, SplitCandidate) {
+    let mut best = SplitCandidate::fallback(2);
+    let mut s0 = f64::INFINITY;
+    best_on_axis(bounds, orders[0], 0, areas, cost, &mut best, &mut s0);
+    let mut node = Aabb::EMPTY;
+    node.grow_aabb(&bounds[orders[2][1] as usize]);
+    node.grow_aabb(&bounds[orders[2][0] as usize]);
+    (node, best)
+}
+
 /// The node's bounds and its greedy-best split by Eq. 2 (see [`SplitCandidate::better_than`]);
 /// for `n == 1` the split is a meaningless fallback.
 #[inline]
@@ -257,6 +280,9 @@ pub fn best_split(
     cost: &CostModel,
 ) -> (Aabb, SplitCandidate) {
     let n = orders[0].len();
+    if n == 2 {
+        return best_split_of_two(bounds, orders, areas, cost);
+    }
     if n >= PAR_AXES_THRESHOLD && rayon::current_num_threads() > 1 {
         // The three axes at once, each with its own suffix buffer. The candidates are totally
         // ordered (`better_than`), so the best of the axes' bests is the sequential best; the
@@ -557,6 +583,80 @@ mod batched {
 mod tests {
     use super::*;
     use sahara_geom::rng::Pcg32;
+
+    /// A node of two primitives: [`best_split`]'s shortcut (axis 0 only) returns bit for bit
+    /// what sweeping all three axes returns, with the boxes in every relative order, equal,
+    /// flat, and with infinite and NaN areas.
+    #[test]
+    fn two_primitive_shortcut_equals_the_three_axis_search() {
+        let mut rng = Pcg32::new(23, 1);
+        let cost = CostModel::default();
+        for case in 0..4000 {
+            let scale = match case % 4 {
+                0 => 1e19f32,
+                1 => 3e38,
+                _ => 1.0,
+            };
+            let q = |rng: &mut Pcg32| (rng.next_u32() % 5) as f32 * 0.5 * scale;
+            // Every fourth case: coordinates from {-1, -0, +0, 1}, so that the two boxes' zero
+            // bounds may differ in sign only (the order of the growth decides which is kept).
+            let z = |rng: &mut Pcg32| [-1.0f32, -0.0, 0.0, 1.0][(rng.next_u32() % 4) as usize];
+            let bounds: Vec<Aabb> = (0..2)
+                .map(|_| {
+                    if case % 4 == 3 {
+                        let a = Vec3A::new(z(&mut rng), z(&mut rng), z(&mut rng));
+                        let b = Vec3A::new(z(&mut rng), z(&mut rng), z(&mut rng));
+                        return Aabb {
+                            min: a.min(b),
+                            max: a.max(b),
+                        };
+                    }
+                    let lo = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) - scale;
+                    let size = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) * 0.5;
+                    Aabb::new(lo, lo + size)
+                })
+                .collect();
+            // Each axis's order independently (they need not agree with the centroids here:
+            // the shortcut relies only on each order holding both ids).
+            let ord = |rng: &mut Pcg32| {
+                if rng.next_u32().is_multiple_of(2) {
+                    [0u32, 1]
+                } else {
+                    [1, 0]
+                }
+            };
+            let (o0, o1, o2) = (ord(&mut rng), ord(&mut rng), ord(&mut rng));
+            let orders = [&o0[..], &o1[..], &o2[..]];
+            let mut areas = vec![0.0f32; 2];
+            let (node, best) = best_split(&bounds, orders, &mut areas, &cost);
+            let mut full = SplitCandidate::fallback(2);
+            let mut s0 = f64::INFINITY;
+            let mut full_node = Aabb::EMPTY;
+            for (axis, o) in orders.iter().enumerate() {
+                full_node =
+                    best_on_axis_scalar(&bounds, o, axis, &mut areas, &cost, &mut full, &mut s0);
+            }
+            let bits = |b: &Aabb| [b.min.to_array(), b.max.to_array()].map(|v| v.map(f32::to_bits));
+            assert_eq!(bits(&node), bits(&full_node), "case {case}: node bounds");
+            assert_eq!(
+                (
+                    best.axis,
+                    best.pos,
+                    best.cost.to_bits(),
+                    best.left_area.to_bits(),
+                    best.right_area.to_bits()
+                ),
+                (
+                    full.axis,
+                    full.pos,
+                    full.cost.to_bits(),
+                    full.left_area.to_bits(),
+                    full.right_area.to_bits()
+                ),
+                "case {case}"
+            );
+        }
+    }
 
     /// The batched sweep (four positions at a time, x86-64) finds bit for bit the scalar
     /// sweep's candidate, pruning bound, suffix areas and node bounds: orders of every length
