@@ -4,7 +4,7 @@
 set -euo pipefail
 X=${XTASK:-target/release/xtask}
 KB=${KB:-target/release/examples/kernel_bench}
-R=${RAYS:-/tmp/price/rays}
+R=${RAYS:-target/price-rays}
 mkdir -p $R
 scenes="sponza_dabrovic sibenik stanford_bunny stanford_dragon utah_teapot teapot_in_stadium san_francisco_osm sd_macross_diorama lamborghini_huracan_gt3 gltf_2cylinder_engine"
 for s in $scenes; do for k in primary diffuse ao; do
