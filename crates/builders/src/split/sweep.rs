@@ -219,32 +219,72 @@ fn best_on_axis_scalar(
     let n = order.len();
     let item = |j: usize| &bounds[order[j] as usize];
     let node = suffix_pass(n, item, areas);
-    let parent_area = node.half_area() as f64;
-    let total = n as f64;
+    let rater = PositionRater::new(axis, n, &node, cost);
     let mut n_left = 0.0;
     prefix_pass(n, item, areas, |j, left, right: &f32| {
         n_left += 1.0;
-        let left_area = left.half_area() as f64;
-        let right_area = right.area();
-        let n_right = total - n_left;
+        rater.rate(j, n_left, left.half_area() as f64, right.area(), best, s0);
+    });
+    node
+}
+
+/// Rates the positions of one sweep by Eq. 2 with the pruning bound `s0` (see
+/// [`best_on_axis`]); shared by the scalar and the batched sweep.
+struct PositionRater<'c> {
+    axis: usize,
+    n: usize,
+    total: f64,
+    parent_area: f64,
+    cost: &'c CostModel,
+}
+
+impl<'c> PositionRater<'c> {
+    #[inline(always)]
+    fn new(axis: usize, n: usize, node: &Aabb, cost: &'c CostModel) -> Self {
+        Self {
+            axis,
+            n,
+            total: n as f64,
+            parent_area: node.half_area() as f64,
+            cost,
+        }
+    }
+
+    /// Position `j` (`n_left == j`, in `f64`), whose sides have these half areas.
+    #[inline(always)]
+    fn rate(
+        &self,
+        j: usize,
+        n_left: f64,
+        left_area: f64,
+        right_area: f64,
+        best: &mut SplitCandidate,
+        s0: &mut f64,
+    ) {
+        let n_right = self.total - n_left;
         let score = left_area * n_left + right_area * n_right;
         if score >= *s0 {
             return;
         }
         let c = SplitCandidate {
-            axis,
+            axis: self.axis,
             pos: j,
-            cost: cost.split_cost_counts(parent_area, left_area, n_left, right_area, n_right),
+            cost: self.cost.split_cost_counts(
+                self.parent_area,
+                left_area,
+                n_left,
+                right_area,
+                n_right,
+            ),
             left_area,
             right_area,
         };
-        if c.better_than(best, n) {
+        if c.better_than(best, self.n) {
             *best = c;
         } else if c.cost > best.cost {
             *s0 = score;
         }
-    });
-    node
+    }
 }
 
 /// [`best_split`] of a node of two primitives `p` and `q`: every axis's one candidate puts one
@@ -422,7 +462,7 @@ pub fn partition_in_place(
 /// candidate are bit for bit the scalar ones (tested against it).
 #[cfg(target_arch = "x86_64")]
 mod batched {
-    use super::{CostModel, SplitCandidate};
+    use super::{CostModel, PositionRater, SplitCandidate};
     use sahara_geom::{Aabb, Vec3A};
     use std::arch::x86_64::*;
 
@@ -493,33 +533,12 @@ mod batched {
         // SAFETY: every caller passes `j < n = order.len()`; the id itself stays checked.
         let item = |j: usize| &bounds[*unsafe { order.get_unchecked(j) } as usize];
         let node = suffix_areas(n, item, areas);
-        let parent_area = node.half_area() as f64;
+        let rater = PositionRater::new(axis, n, &node, cost);
         let total = n as f64;
         let areas = &areas[..n];
-        // Rates position `j` (the scalar sweep's visit).
-        let rate = |j: usize,
-                    left_area: f64,
-                    right_area: f64,
-                    best: &mut SplitCandidate,
-                    s0: &mut f64| {
-            let n_left = j as f64;
-            let n_right = total - n_left;
-            let score = left_area * n_left + right_area * n_right;
-            if score >= *s0 {
-                return;
-            }
-            let c = SplitCandidate {
-                axis,
-                pos: j,
-                cost: cost.split_cost_counts(parent_area, left_area, n_left, right_area, n_right),
-                left_area,
-                right_area,
-            };
-            if c.better_than(best, n) {
-                *best = c;
-            } else if c.cost > best.cost {
-                *s0 = score;
-            }
+        // `n_left` is `j` exactly, as the scalar sweep's running count.
+        let rate = |j: usize, left_area: f64, right_area: f64, best: &mut _, s0: &mut _| {
+            rater.rate(j, j as f64, left_area, right_area, best, s0)
         };
         let mut left = Aabb::EMPTY;
         let mut j = 1;
