@@ -603,6 +603,31 @@ mod tests {
     use super::*;
     use sahara_geom::rng::Pcg32;
 
+    /// A candidate as bits (exact comparison, NaN included).
+    fn cand_bits(c: &SplitCandidate) -> (usize, usize, u64, u64, u64) {
+        (
+            c.axis,
+            c.pos,
+            c.cost.to_bits(),
+            c.left_area.to_bits(),
+            c.right_area.to_bits(),
+        )
+    }
+
+    /// A box as bits (the sign of a zero included).
+    fn box_bits(b: &Aabb) -> [[u32; 3]; 2] {
+        [b.min.to_array(), b.max.to_array()].map(|v| v.map(f32::to_bits))
+    }
+
+    /// A box on a coarse grid of `scale` (ties; `1e19`: overflowing areas; `3e38`: infinite
+    /// extents and NaN areas).
+    fn grid_box(rng: &mut Pcg32, steps: u32, scale: f32) -> Aabb {
+        let mut q = || (rng.next_u32() % steps) as f32 * 0.5 * scale;
+        let lo = Vec3A::new(q(), q(), q()) - scale;
+        let size = Vec3A::new(q(), q(), q()) * 0.5;
+        Aabb::new(lo, lo + size)
+    }
+
     /// A node of two primitives: [`best_split`]'s shortcut (axis 0 only) returns bit for bit
     /// what sweeping all three axes returns, with the boxes in every relative order, equal,
     /// flat, and with infinite and NaN areas.
@@ -616,7 +641,6 @@ mod tests {
                 1 => 3e38,
                 _ => 1.0,
             };
-            let q = |rng: &mut Pcg32| (rng.next_u32() % 5) as f32 * 0.5 * scale;
             // Every fourth case: coordinates from {-1, -0, +0, 1}, so that the two boxes' zero
             // bounds may differ in sign only (the order of the growth decides which is kept).
             let z = |rng: &mut Pcg32| [-1.0f32, -0.0, 0.0, 1.0][(rng.next_u32() % 4) as usize];
@@ -630,9 +654,7 @@ mod tests {
                             max: a.max(b),
                         };
                     }
-                    let lo = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) - scale;
-                    let size = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) * 0.5;
-                    Aabb::new(lo, lo + size)
+                    grid_box(&mut rng, 5, scale)
                 })
                 .collect();
             // Each axis's order independently (they need not agree with the centroids here:
@@ -655,25 +677,12 @@ mod tests {
                 full_node =
                     best_on_axis_scalar(&bounds, o, axis, &mut areas, &cost, &mut full, &mut s0);
             }
-            let bits = |b: &Aabb| [b.min.to_array(), b.max.to_array()].map(|v| v.map(f32::to_bits));
-            assert_eq!(bits(&node), bits(&full_node), "case {case}: node bounds");
             assert_eq!(
-                (
-                    best.axis,
-                    best.pos,
-                    best.cost.to_bits(),
-                    best.left_area.to_bits(),
-                    best.right_area.to_bits()
-                ),
-                (
-                    full.axis,
-                    full.pos,
-                    full.cost.to_bits(),
-                    full.left_area.to_bits(),
-                    full.right_area.to_bits()
-                ),
-                "case {case}"
+                box_bits(&node),
+                box_bits(&full_node),
+                "case {case}: node bounds"
             );
+            assert_eq!(cand_bits(&best), cand_bits(&full), "case {case}");
         }
     }
 
@@ -691,14 +700,7 @@ mod tests {
                 1 => 3e38,    // extents overflow: infinite extents, NaN areas
                 _ => 1.0,
             };
-            let q = |rng: &mut Pcg32| (rng.next_u32() % 7) as f32 * 0.5 * scale;
-            let bounds: Vec<Aabb> = (0..n)
-                .map(|_| {
-                    let lo = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) - scale;
-                    let size = Vec3A::new(q(&mut rng), q(&mut rng), q(&mut rng)) * 0.5;
-                    Aabb::new(lo, lo + size)
-                })
-                .collect();
+            let bounds: Vec<Aabb> = (0..n).map(|_| grid_box(&mut rng, 7, scale)).collect();
             let centroids: Vec<Vec3A> = bounds.iter().map(|b| b.centroid()).collect();
             let ids: Vec<u32> = (0..n as u32).collect();
             let orders = sorted_orders(&centroids, &ids);
@@ -709,28 +711,16 @@ mod tests {
             for (axis, o) in orders.iter().enumerate() {
                 let n1 = best_on_axis(&bounds, o, axis, &mut a1, &cost, &mut b1, &mut s1);
                 let n2 = best_on_axis_scalar(&bounds, o, axis, &mut a2, &cost, &mut b2, &mut s2);
-                let bits = |b: &Aabb| b.min.to_array().map(f32::to_bits);
                 assert_eq!(
-                    (bits(&n1), n1.max.to_array().map(f32::to_bits)),
-                    (bits(&n2), n2.max.to_array().map(f32::to_bits))
+                    box_bits(&n1),
+                    box_bits(&n2),
+                    "case {case}, axis {axis}: node"
                 );
                 let ab = |a: &[f32]| a[1..].iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 assert_eq!(ab(&a1), ab(&a2), "case {case}, axis {axis}: suffix areas");
                 assert_eq!(
-                    (
-                        b1.axis,
-                        b1.pos,
-                        b1.cost.to_bits(),
-                        b1.left_area.to_bits(),
-                        b1.right_area.to_bits()
-                    ),
-                    (
-                        b2.axis,
-                        b2.pos,
-                        b2.cost.to_bits(),
-                        b2.left_area.to_bits(),
-                        b2.right_area.to_bits()
-                    ),
+                    cand_bits(&b1),
+                    cand_bits(&b2),
                     "case {case}, axis {axis}, n {n}"
                 );
                 assert_eq!(s1.to_bits(), s2.to_bits(), "case {case}: pruning bound");
