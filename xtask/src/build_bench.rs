@@ -11,6 +11,7 @@
 use std::time::Instant;
 
 use anyhow::{bail, Result};
+use sahara_builders::simd::{self, BuildSimd};
 use sahara_builders::{BuildInput, CostModel};
 use serde::Serialize;
 
@@ -21,7 +22,9 @@ pub struct Args {
     /// Comma-separated scene names (catalog names or paths).
     #[arg(long, value_delimiter = ',', default_value = "sponza_dabrovic,sibenik")]
     scenes: Vec<String>,
-    /// Comma-separated registered builder names.
+    /// Comma-separated registered builder names. `name@level` builds with the builders' SIMD
+    /// capped at `level` (`baseline`, `avx2`, `avx512`; `sahara_builders::simd`), to time the
+    /// backends side by side: the trees are the same.
     #[arg(long, value_delimiter = ',', default_value = "binned,sweep,sbvh")]
     builders: Vec<String>,
     /// Comma-separated Embree build qualities to time as well (`low`, `medium`, `high`);
@@ -62,7 +65,8 @@ pub struct BenchRow {
 }
 
 enum Engine {
-    Sahara(String, Box<dyn sahara_builders::Builder>),
+    /// Name as given, builder, SIMD cap.
+    Sahara(String, Box<dyn sahara_builders::Builder>, BuildSimd),
     #[cfg_attr(not(feature = "embree"), allow(dead_code))]
     Embree(String, u8),
 }
@@ -70,7 +74,7 @@ enum Engine {
 impl Engine {
     fn name(&self) -> String {
         match self {
-            Engine::Sahara(n, _) => n.clone(),
+            Engine::Sahara(n, ..) => n.clone(),
             Engine::Embree(q, _) => format!("embree-{q}"),
         }
     }
@@ -140,7 +144,22 @@ struct Samples {
 pub fn run(a: Args) -> Result<()> {
     let mut engines: Vec<Engine> = Vec::new();
     for b in &a.builders {
-        engines.push(Engine::Sahara(b.clone(), util::builder(b)?));
+        let (name, level) = match b.split_once('@') {
+            Some((name, level)) => {
+                let Some(l) = BuildSimd::from_name(level) else {
+                    bail!("unknown SIMD level {level:?} (baseline, avx2, avx512)");
+                };
+                if l > BuildSimd::detected() {
+                    bail!(
+                        "this CPU does not run {l} (best: {})",
+                        BuildSimd::detected()
+                    );
+                }
+                (name, l)
+            }
+            None => (b.as_str(), BuildSimd::Avx512),
+        };
+        engines.push(Engine::Sahara(b.clone(), util::builder(name)?, level));
     }
     for q in &a.embree {
         engines.push(Engine::Embree(q.to_ascii_lowercase(), quality_of(q)?));
@@ -161,7 +180,8 @@ pub fn run(a: Args) -> Result<()> {
         // A warm-up build of every engine (page faults, Embree's thread start-up).
         for (e, s) in engines.iter().zip(samples.iter_mut()) {
             match e {
-                Engine::Sahara(_, b) => {
+                Engine::Sahara(_, b, level) => {
+                    simd::set_max(*level);
                     let bvh = util::with_threads(a.threads, || b.build(&input))??;
                     s.sah = Some(sahara_metrics::sah(&bvh, &cost));
                 }
@@ -174,7 +194,8 @@ pub fn run(a: Args) -> Result<()> {
             for i in 0..engines.len() {
                 let idx = (i + round) % engines.len();
                 match &engines[idx] {
-                    Engine::Sahara(_, b) => {
+                    Engine::Sahara(_, b, level) => {
+                        simd::set_max(*level);
                         let (build, collapse) = util::with_threads(a.threads, || {
                             let t0 = Instant::now();
                             let bvh = b.build(&input);

@@ -33,6 +33,7 @@ pub mod popov;
 pub mod registry;
 pub mod reinsert;
 pub mod sbvh;
+pub mod simd;
 pub mod split;
 pub mod sweep;
 pub mod topdown;

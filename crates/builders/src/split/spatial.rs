@@ -24,6 +24,9 @@ use sahara_metrics::CostModel;
 use super::object::Ref;
 use super::{half_area, offer, ranks_before, BinMap, Suffix, PAR_AXES_THRESHOLD};
 
+#[cfg(target_arch = "x86_64")]
+mod simd;
+
 /// A primitive that spatial splits can cut: the callback of [`crate::BuildInput::with_splitter`].
 pub trait SplitPrimitive: Sync {
     /// Bounds of the parts of primitive `prim` inside the two halves of `bounds` (the box of
@@ -304,13 +307,32 @@ fn binned_axis(
             bins,
             planes,
             right,
+            #[cfg(target_arch = "x86_64")]
+            soa,
         } = sc;
         bins.clear();
         bins.resize(nb, SpatialBin::EMPTY);
         // Plane positions once per node and axis (exactly `map.plane(i)`): a division each.
         planes.clear();
         planes.extend((0..=nb).map(|i| map.plane(i)));
-        fill_spatial_bins(clipper, refs, axis, &map, planes, bins);
+        #[cfg(target_arch = "x86_64")]
+        planes.resize(nb + 1 + simd::PLANE_PADDING, f32::INFINITY);
+        #[cfg(target_arch = "x86_64")]
+        match (clipper, crate::simd::active()) {
+            (Clipper::Triangles(tris), level) if level != crate::simd::BuildSimd::Baseline => {
+                let job = simd::AxisJob {
+                    tris,
+                    refs,
+                    axis,
+                    map: &map,
+                    planes,
+                };
+                simd::fill(level, job, bins, soa)
+            }
+            _ => fill_scalar(clipper, refs, axis, &map, planes, bins),
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        fill_scalar(clipper, refs, axis, &map, planes, bins);
         right.clear();
         right.resize(nb, (0.0f32, 0u32));
         rate_spatial_planes(bins, right, refs.len(), axis, map, area, k, budget, cost)
@@ -324,6 +346,9 @@ struct SpatialScratch {
     bins: Vec<SpatialBin>,
     planes: Vec<f32>,
     right: Vec<(f32, u32)>,
+    /// The SIMD backends' bins.
+    #[cfg(target_arch = "x86_64")]
+    soa: simd::SoaScratch,
 }
 
 thread_local! {
@@ -341,8 +366,12 @@ impl SpatialBin {
 /// Bins every reference on one axis: counts it as entering its first bin and leaving its last,
 /// and grows each bin it spans by the box of its part there. References inside one bin grow
 /// it by their box; triangles spanning several are clipped plane by plane
-/// ([`bin_triangle`]); other primitives go through [`Clipper::bin`].
-fn fill_spatial_bins(
+/// ([`SlabClipper::bin_into`]); other primitives go through [`Clipper::bin`].
+///
+/// The baseline path of every CPU. On x86-64 CPUs with AVX2 or AVX-512, triangles go through
+/// `simd::fill` instead, which fills the same bins bit for bit eight or sixteen slabs at a
+/// time ([`crate::simd`]).
+fn fill_scalar(
     clipper: &Clipper,
     refs: &[Ref],
     axis: Axis,
@@ -351,10 +380,7 @@ fn fill_spatial_bins(
     bins: &mut [SpatialBin],
 ) {
     for r in refs {
-        let first = map.bin(r.bounds.min[axis]);
-        let last = map.bin(r.bounds.max[axis]);
-        bins[first].enter += 1;
-        bins[last].exit += 1;
+        let (first, last) = count_span(map, r, axis, bins);
         if first == last {
             bins[first].bounds.grow_aabb(&r.bounds);
             continue;
@@ -371,6 +397,17 @@ fn fill_spatial_bins(
             }
         }
     }
+}
+
+/// The first and last bins of a reference's box on `axis`, counted as the bins it enters and
+/// leaves.
+#[inline(always)]
+fn count_span(map: &BinMap, r: &Ref, axis: Axis, bins: &mut [SpatialBin]) -> (usize, usize) {
+    let first = map.bin(r.bounds.min[axis]);
+    let last = map.bin(r.bounds.max[axis]);
+    bins[first].enter += 1;
+    bins[last].exit += 1;
+    (first, last)
 }
 
 /// The sweep over the filled bins of one axis: the `k` best planes.
@@ -990,7 +1027,7 @@ mod tests {
     use super::*;
 
     /// A small deterministic generator (no dependency on a RNG crate in unit tests).
-    fn lcg(state: &mut u64) -> f32 {
+    pub(super) fn lcg(state: &mut u64) -> f32 {
         *state = state
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
