@@ -511,7 +511,9 @@ pub struct SlabClipper<'a> {
 }
 
 impl<'a> SlabClipper<'a> {
-    /// The clipper of `tri`'s reference with box `bounds` along `axis`.
+    /// The clipper of `tri`'s reference with box `bounds` along `axis`. Always inlined: the
+    /// SIMD binning reads it right away, and a returned copy stalls on store forwarding.
+    #[inline(always)]
     pub fn new(tri: &Triangle, axis: Axis, bounds: &'a Aabb) -> Self {
         let mut v = tri.v;
         if v[0][axis] > v[1][axis] {

@@ -398,8 +398,14 @@ unsafe fn slabs<L: Lanes>(
         let dc = |k: usize, c: usize| splat(clip.dir[k][c]);
         let inf = splat(f32::INFINITY);
         let ninf = splat(f32::NEG_INFINITY);
-        let bmin = [0, 1, 2].map(|c| splat(clip.bounds.min[c]));
-        let bmax = [0, 1, 2].map(|c| splat(clip.bounds.max[c]));
+        // No `array::map` and no closures handed to other functions in this kernel: they
+        // would be compiled without the backend's target features and could not inline its
+        // intrinsics (each would become a call).
+        let (mut bmin, mut bmax) = ([inf; 3], [ninf; 3]);
+        for c in 0..3 {
+            bmin[c] = splat(clip.bounds.min[c]);
+            bmax[c] = splat(clip.bounds.max[c]);
+        }
         // The crossing box at each upper plane (`SlabClipper::bin_into`'s `crossing`).
         let crossing = |p: L::V| -> ([L::V; 3], [L::V; 3]) {
             let t0 = L::sub(p, v0a);
@@ -446,14 +452,15 @@ unsafe fn slabs<L: Lanes>(
                 hi_pos = L::select(L::from_bits(1 << (m - 1 - i)), inf, hi_pos);
             }
             let upper = crossing(hi_pos);
-            let lower = (
-                [0, 1, 2].map(|c| L::shift_in(prev.0[c], upper.0[c])),
-                [0, 1, 2].map(|c| L::shift_in(prev.1[c], upper.1[c])),
-            );
+            // `lower.union(&upper)`, the lower crossings shifted in from the previous block.
+            let (mut pmin, mut pmax) = ([inf; 3], [ninf; 3]);
+            for c in 0..3 {
+                let lower_min = L::shift_in(prev.0[c], upper.0[c]);
+                let lower_max = L::shift_in(prev.1[c], upper.1[c]);
+                pmin[c] = L::min(lower_min, upper.0[c]);
+                pmax[c] = L::max(lower_max, upper.1[c]);
+            }
             prev = upper;
-            // `lower.union(&upper)`.
-            let mut pmin = [0, 1, 2].map(|c| L::min(lower.0[c], upper.0[c]));
-            let mut pmax = [0, 1, 2].map(|c| L::max(lower.1[c], upper.1[c]));
             // The vertices inside the slab, in order (a vertex is in one or two slabs of the
             // reference, so most blocks have none).
             for vk in v {
