@@ -461,21 +461,21 @@ pub fn partition_in_place(
 /// and `f64` operations in the same order (no FMA), so areas, scores, costs and the chosen
 /// candidate are bit for bit the scalar ones (tested against it).
 #[cfg(target_arch = "x86_64")]
-mod batched {
+pub(in crate::split) mod batched {
     use super::{CostModel, PositionRater, SplitCandidate};
     use sahara_geom::{Aabb, Vec3A};
     use std::arch::x86_64::*;
 
     /// The extent of `b` as `Aabb::half_area` computes it (`Aabb::extent`).
     #[inline(always)]
-    fn extent(b: &Aabb) -> __m128 {
+    pub(in crate::split) fn extent(b: &Aabb) -> __m128 {
         b.extent().into()
     }
 
     /// `x·y + y·z + z·x` of four extents (one per lane), with the operations and order of
     /// `Aabb::half_area`.
     #[inline(always)]
-    fn half_areas4(e: [__m128; 4]) -> __m128 {
+    pub(in crate::split) fn half_areas4(e: [__m128; 4]) -> __m128 {
         // SAFETY: SSE2 is part of x86-64.
         unsafe {
             let t0 = _mm_unpacklo_ps(e[0], e[1]); // x0 x1 y0 y1
