@@ -178,15 +178,30 @@ pub fn spatial_search(
     bins: usize,
     cost: &CostModel,
 ) -> Vec<SpatialCand> {
-    let f = |axis| spatial_axis(clipper, refs, bounds, axis, area, k, budget, bins, cost);
-    let per_axis: Vec<Vec<SpatialCand>> = if refs.len() >= PAR_AXES_THRESHOLD {
-        (0..3).into_par_iter().map(f).collect()
-    } else {
-        (0..3).map(f).collect()
+    let f = |axis, out: &mut Vec<SpatialCand>| {
+        spatial_axis(
+            clipper, refs, bounds, axis, area, k, budget, bins, cost, out,
+        )
     };
     let mut cands = Vec::with_capacity(k);
-    for c in per_axis.into_iter().flatten() {
-        offer(&mut cands, k, c, SpatialCand::better);
+    if refs.len() >= PAR_AXES_THRESHOLD {
+        let per_axis: Vec<Vec<SpatialCand>> = (0..3)
+            .into_par_iter()
+            .map(|axis| {
+                let mut out = Vec::with_capacity(k);
+                f(axis, &mut out);
+                out
+            })
+            .collect();
+        for c in per_axis.into_iter().flatten() {
+            offer(&mut cands, k, c, SpatialCand::better);
+        }
+    } else {
+        // One list for the three axes (the `k` best of all planes whatever the order in
+        // which they are offered: the candidate order is total), without a list per axis.
+        for axis in 0..3 {
+            f(axis, &mut cands);
+        }
     }
     cands
 }
@@ -209,11 +224,11 @@ fn spatial_axis(
     budget: usize,
     nb: usize,
     cost: &CostModel,
-) -> Vec<SpatialCand> {
-    let Some(map) = BinMap::new(bounds.min[axis], bounds.max[axis], nb) else {
-        return Vec::new();
-    };
-    binned_axis(clipper, refs, axis, map, area, k, budget, cost)
+    out: &mut Vec<SpatialCand>,
+) {
+    if let Some(map) = BinMap::new(bounds.min[axis], bounds.max[axis], nb) {
+        binned_axis(clipper, refs, axis, map, area, k, budget, cost, out);
+    }
 }
 
 /// The best spatial split of a node found coarse to fine: per axis, `coarse` equal-width bins
@@ -269,7 +284,18 @@ fn refined_axis(
     cost: &CostModel,
 ) -> Option<SpatialCand> {
     let map = BinMap::new(bounds.min[axis], bounds.max[axis], coarse)?;
-    let coarse_cands = binned_axis(clipper, refs, axis, map, area, REFINED_PLANES, budget, cost);
+    let mut coarse_cands = Vec::with_capacity(REFINED_PLANES);
+    binned_axis(
+        clipper,
+        refs,
+        axis,
+        map,
+        area,
+        REFINED_PLANES,
+        budget,
+        cost,
+        &mut coarse_cands,
+    );
     let mut best = *coarse_cands.first()?;
     let sub = fine.div_ceil(coarse.max(1));
     if sub < 2 {
@@ -280,7 +306,19 @@ fn refined_axis(
         let Some(fmap) = BinMap::new(lo, hi, 2 * sub) else {
             continue;
         };
-        if let Some(f) = binned_axis(clipper, refs, axis, fmap, area, 1, budget, cost).first() {
+        let mut fine_best = Vec::with_capacity(1);
+        binned_axis(
+            clipper,
+            refs,
+            axis,
+            fmap,
+            area,
+            1,
+            budget,
+            cost,
+            &mut fine_best,
+        );
+        if let Some(f) = fine_best.first() {
             if f.better(&best) {
                 best = *f;
             }
@@ -289,7 +327,8 @@ fn refined_axis(
     Some(best)
 }
 
-/// The `k` best spatial splits on one axis with the bins of `map`.
+/// Offers the spatial splits on one axis with the bins of `map` to `out`, the `k` best so far
+/// (of this axis or of others), which keeps the `k` best.
 #[allow(clippy::too_many_arguments)]
 fn binned_axis(
     clipper: &Clipper,
@@ -300,7 +339,8 @@ fn binned_axis(
     k: usize,
     budget: usize,
     cost: &CostModel,
-) -> Vec<SpatialCand> {
+    out: &mut Vec<SpatialCand>,
+) {
     let nb = map.bins;
     SCRATCH.with_borrow_mut(|sc| {
         let SpatialScratch {
@@ -349,13 +389,13 @@ fn binned_axis(
         #[cfg(target_arch = "x86_64")]
         {
             let _ = right;
-            plane.rate_batched(bins, suffix_areas, suffix_counts)
+            plane.rate_batched(bins, suffix_areas, suffix_counts, out)
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
             right.clear();
             right.resize(nb, (0.0f32, 0u32));
-            rate_spatial_planes(bins, right, &plane)
+            rate_spatial_planes(bins, right, &plane, out)
         }
     })
 }
@@ -424,7 +464,8 @@ impl PlaneRating<'_> {
         bins: &[SpatialBin],
         areas: &mut Vec<f32>,
         counts: &mut Vec<u32>,
-    ) -> Vec<SpatialCand> {
+        cands: &mut Vec<SpatialCand>,
+    ) {
         use super::sweep::batched::{extent, half_areas4};
         use std::arch::x86_64::*;
         let nb = bins.len();
@@ -458,7 +499,6 @@ impl PlaneRating<'_> {
                 counts[i] = rc;
                 areas[i] = acc.half_area();
             }
-            let mut cands: Vec<SpatialCand> = Vec::with_capacity(self.k);
             let mut lb = Aabb::EMPTY;
             let mut lc = 0u32;
             let mut i = 1;
@@ -508,7 +548,7 @@ impl PlaneRating<'_> {
                 }
                 for q in 0..4 {
                     let (nl, nr) = (nl[q] as usize, nr[q] as usize);
-                    self.offer(&mut cands, i + q, lf[q], nl, rf[q], nr, sf[q]);
+                    self.offer(cands, i + q, lf[q], nl, rf[q], nr, sf[q]);
                 }
                 i += 4;
             }
@@ -519,10 +559,9 @@ impl PlaneRating<'_> {
                 let (la, ra) = (half_area(&lb), areas[i] as f64);
                 let (nl, nr) = (lc as usize, counts[i] as usize);
                 let score = la * nl as f64 + ra * nr as f64;
-                self.offer(&mut cands, i, la, nl, ra, nr, score);
+                self.offer(cands, i, la, nl, ra, nr, score);
                 i += 1;
             }
-            cands
         }
     }
 }
@@ -611,7 +650,8 @@ fn rate_spatial_planes(
     bins: &[SpatialBin],
     right: &mut [(f32, u32)],
     rating: &PlaneRating,
-) -> Vec<SpatialCand> {
+    cands: &mut Vec<SpatialCand>,
+) {
     let PlaneRating {
         n,
         axis,
@@ -622,7 +662,6 @@ fn rate_spatial_planes(
         cost,
     } = *rating;
     let nb = bins.len();
-    let mut cands: Vec<SpatialCand> = Vec::with_capacity(k);
     let side = |i: usize| {
         (
             &bins[i].bounds,
@@ -647,9 +686,8 @@ fn rate_spatial_planes(
             n_left: nl,
             n_right: nr,
         };
-        offer(&mut cands, k, cand, SpatialCand::better);
+        offer(cands, k, cand, SpatialCand::better);
     });
-    cands
 }
 
 /// The plane sweep of a spatial binning of `nb` bins: `bin(i)` gives the box that bin `i`
@@ -1319,8 +1357,27 @@ mod tests {
                     cost: &cost,
                 };
                 let mut right = vec![(0.0f32, 0u32); nb];
-                let want = rate_spatial_planes(&bins, &mut right, &rating);
-                let got = rating.rate_batched(&bins, &mut areas, &mut counts);
+                // Both lists start with a candidate of another axis (the lists are shared by
+                // the three axes), in half of the cases.
+                let other = SpatialCand {
+                    axis: 0,
+                    plane: 1,
+                    map,
+                    pos: map.plane(1),
+                    score: [2.0, 40.0][case % 2],
+                    cost: 1.0,
+                    n_left: 1,
+                    n_right: 1,
+                };
+                let start = if case % 4 < 2 {
+                    vec![other]
+                } else {
+                    Vec::new()
+                };
+                let mut want = start.clone();
+                rate_spatial_planes(&bins, &mut right, &rating, &mut want);
+                let mut got = start;
+                rating.rate_batched(&bins, &mut areas, &mut counts, &mut got);
                 let key = |c: &SpatialCand| {
                     let bits = (c.score.to_bits(), c.cost.to_bits(), c.pos.to_bits());
                     (c.axis, c.plane, bits, c.n_left, c.n_right)
