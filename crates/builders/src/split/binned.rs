@@ -252,7 +252,7 @@ pub struct RefBins {
 
 /// `min` of two lanes as SSE's `minps` computes it (`a` only when `a < b`).
 #[inline(always)]
-fn min_lane(a: f32, b: f32) -> f32 {
+pub(crate) fn min_lane(a: f32, b: f32) -> f32 {
     if a < b {
         a
     } else {
@@ -262,7 +262,7 @@ fn min_lane(a: f32, b: f32) -> f32 {
 
 /// `max` of two lanes as SSE's `maxps` computes it (`a` only when `a > b`).
 #[inline(always)]
-fn max_lane(a: f32, b: f32) -> f32 {
+pub(crate) fn max_lane(a: f32, b: f32) -> f32 {
     if a > b {
         a
     } else {

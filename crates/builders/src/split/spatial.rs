@@ -346,6 +346,7 @@ fn binned_axis(
         let SpatialScratch {
             bins,
             planes,
+            #[cfg(not(target_arch = "x86_64"))]
             right,
             #[cfg(target_arch = "x86_64")]
             soa,
@@ -388,7 +389,6 @@ fn binned_axis(
         };
         #[cfg(target_arch = "x86_64")]
         {
-            let _ = right;
             plane.rate_batched(bins, suffix_areas, suffix_counts, out)
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -421,7 +421,6 @@ impl PlaneRating<'_> {
     /// [`rate_spatial_planes`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    #[cfg(target_arch = "x86_64")]
     fn offer(
         &self,
         cands: &mut Vec<SpatialCand>,
@@ -572,6 +571,8 @@ impl PlaneRating<'_> {
 struct SpatialScratch {
     bins: Vec<SpatialBin>,
     planes: Vec<f32>,
+    /// The suffix areas and counts of the plane-by-plane rating.
+    #[cfg(not(target_arch = "x86_64"))]
     right: Vec<(f32, u32)>,
     /// The SIMD backends' bins.
     #[cfg(target_arch = "x86_64")]
@@ -652,15 +653,7 @@ fn rate_spatial_planes(
     rating: &PlaneRating,
     cands: &mut Vec<SpatialCand>,
 ) {
-    let PlaneRating {
-        n,
-        axis,
-        map,
-        area,
-        k,
-        budget,
-        cost,
-    } = *rating;
+    let (n, budget) = (rating.n, rating.budget);
     let nb = bins.len();
     let side = |i: usize| {
         (
@@ -672,21 +665,7 @@ fn rate_spatial_planes(
     };
     sweep_spatial_planes(nb, side, right, n, budget, |i, lb, nl, ra: &f32, nr| {
         let (la, ra) = (half_area(lb), ra.area());
-        let score = la * nl as f64 + ra * nr as f64;
-        if cands.len() == k && score > cands[k - 1].score {
-            return;
-        }
-        let cand = SpatialCand {
-            axis,
-            plane: i,
-            map,
-            pos: map.plane(i),
-            score,
-            cost: cost.split_cost(area, la, nl, ra, nr),
-            n_left: nl,
-            n_right: nr,
-        };
-        offer(cands, k, cand, SpatialCand::better);
+        rating.offer(cands, i, la, nl, ra, nr, la * nl as f64 + ra * nr as f64);
     });
 }
 

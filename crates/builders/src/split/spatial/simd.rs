@@ -31,6 +31,7 @@ use sahara_geom::{Axis, Triangle, Vec3A};
 
 use super::{count_span, BinMap, SlabClipper, SpatialBin};
 use crate::simd::BuildSimd;
+use crate::split::binned::{max_lane, min_lane};
 use crate::split::object::Ref;
 
 /// The most lanes of any backend.
@@ -44,26 +45,6 @@ pub(super) const PLANE_PADDING: usize = MAX_W;
 #[derive(Default)]
 pub(super) struct SoaScratch {
     bins: [Vec<f32>; 6],
-}
-
-/// `_mm_min_ps` on one lane: `a < b ? a : b` (the second operand on ties and NaNs).
-#[inline(always)]
-fn min1(a: f32, b: f32) -> f32 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
-
-/// `_mm_max_ps` on one lane: `a > b ? a : b`.
-#[inline(always)]
-fn max1(a: f32, b: f32) -> f32 {
-    if a > b {
-        a
-    } else {
-        b
-    }
 }
 
 /// The vector operations the kernel needs, with the semantics of the SSE instructions the
@@ -357,9 +338,9 @@ unsafe fn fill_with<L: Lanes>(job: AxisJob, bins: &mut [SpatialBin], sc: &mut So
         if first == last {
             for c in 0..3 {
                 let lo = &mut sc.bins[c][first];
-                *lo = min1(*lo, r.bounds.min[c]);
+                *lo = min_lane(*lo, r.bounds.min[c]);
                 let hi = &mut sc.bins[c + 3][first];
-                *hi = max1(*hi, r.bounds.max[c]);
+                *hi = max_lane(*hi, r.bounds.max[c]);
             }
             continue;
         }
