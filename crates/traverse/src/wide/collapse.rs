@@ -1,16 +1,19 @@
 //! Collapsing a binary [`Bvh`] into a [`WideBvh`]: the SAH-optimal collapse of Ylitie, Karras
 //! and Laine (2017) by dynamic programming over the binary tree ([`Plan`]), then the wide
-//! nodes and the leaf packets are laid out depth first.
+//! nodes and the leaf packets are laid out depth first ([`Layout`]): a counting pass gives
+//! every wide node's block its final range, so that the blocks are written straight into the
+//! final arrays, in parallel, with no copy.
 
 use super::memory::HugeSlice;
 use super::{
-    decode_leaf, encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
+    encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
     MAX_LEAF_PACKETS, NO_ROOT,
 };
 use sahara_bvh::Bvh;
 use sahara_geom::intersect::is_degenerate;
 use sahara_geom::{Aabb, Triangle};
 use std::mem::MaybeUninit;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Most references in one wide leaf.
 const LEAF_MAX: usize = 4 * MAX_LEAF_PACKETS;
@@ -58,6 +61,35 @@ impl Source<'_> {
         }
     }
 
+    /// Starts loading primitive `p` into the cache (a hint: the collapse reads the primitives
+    /// of a leaf in index order, scattered over the whole array, so their cache misses are
+    /// overlapped by asking for all of them first). Out-of-range indices are harmless here.
+    #[inline]
+    fn prefetch(&self, p: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let (start, size) = match self {
+                Source::Triangles(t) => (
+                    t.as_ptr().wrapping_add(p as usize).cast::<i8>(),
+                    std::mem::size_of::<Triangle>(),
+                ),
+                Source::Boxes(b) => (
+                    b.as_ptr().wrapping_add(p as usize).cast::<i8>(),
+                    std::mem::size_of::<Aabb>(),
+                ),
+            };
+            // SAFETY: SSE is part of x86-64, and a prefetch never faults, whatever the
+            // address.
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(start);
+                _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(size - 1));
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = p;
+    }
+
     /// Writes primitive `prim` into lane `lane` of a packet: its vertices (NaN for a
     /// degenerate triangle, which never hits, and for a box primitive) and its index.
     pub(crate) fn fill_lane(&self, p: &mut TriPacket, lane: usize, prim: u32) {
@@ -82,21 +114,6 @@ impl Source<'_> {
             }
         }
     }
-}
-
-struct Collapser<'a, const W: usize> {
-    bvh: &'a Bvh,
-    tris: Source<'a>,
-    nodes: Vec<WideNode<W>>,
-    packets: Vec<TriPacket>,
-    /// Wide nodes allocated but not filled yet: `(binary node, wide node)`.
-    work: Vec<(usize, usize)>,
-    /// What every binary node becomes.
-    plan: &'a Plan,
-    /// Reused buffers of [`Collapser::subtree_prims`] (the references of a leaf and the
-    /// binary nodes still to visit), so that no leaf allocates.
-    prims: Vec<u32>,
-    todo: Vec<usize>,
 }
 
 /// SAH cost (per unit of the node's area) of a wide leaf over `refs` references: packets of
@@ -191,13 +208,14 @@ impl Plan {
 
     /// Appends to `out` the binary nodes that stand for the (at most `slots`) wide children of
     /// the subtree of `n`, in order.
-    fn gather(&self, bvh: &Bvh, n: usize, mut slots: usize, out: &mut Vec<usize>) {
+    fn gather(&self, bvh: &Bvh, n: usize, mut slots: usize, out: &mut Kids) {
         let row = n * self.width;
         while slots > 1 && self.choice[row + slots - 1] == 0 {
             slots -= 1;
         }
         if slots == 1 {
-            out.push(n);
+            out.list[out.len] = n;
+            out.len += 1;
             return;
         }
         let k = self.choice[row + slots - 1] as usize;
@@ -211,8 +229,8 @@ impl Plan {
 struct Par {
     /// Subtrees of more binary nodes than this are planned with both children at once.
     plan_nodes: usize,
-    /// Subtrees of at least this many references collapse their children's subtrees as
-    /// separate fragments at once.
+    /// Wide nodes over at least this many references count and write their children's
+    /// blocks at once.
     refs: u64,
 }
 
@@ -405,16 +423,15 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
     contiguous &= sizes[0] as usize == n;
     let plan = Plan::new(bvh, &refs, W, contiguous.then_some(&sizes[..]), par);
     drop(sizes);
-    let (nodes, packets, root) = if plan.is_leaf(0) {
-        let mut c = Collapser::<W>::new(bvh, tris, &plan, Vec::new());
-        let root = c.child(0);
-        debug_assert!(c.work.is_empty());
-        (c.nodes.into(), c.packets.into(), root)
-    } else {
-        let frag = fragment::<W>(bvh, tris, &plan, &refs, par.refs, 0);
-        let (nodes, packets) = flatten(frag);
-        (nodes, packets, 0)
+    let layout = Layout::<W> {
+        bvh,
+        tris,
+        plan: &plan,
+        refs: &refs,
+        par_refs: par.refs,
+        blocks: (0..n).map(|_| AtomicU64::new(0)).collect(),
     };
+    let (nodes, packets, root) = layout.write();
     assert!(
         nodes.len() < LEAF_BIT as usize,
         "too many wide nodes ({})",
@@ -431,161 +448,475 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
     }
 }
 
-/// The wide subtree of one binary node that becomes a wide inner node, with indices local to
-/// the fragment: node `0` is the subtree's own wide node, node `j >= 1` the `j`-th node of the
-/// block that the depth-first collapse lays out for its descendants; leaves count packets
-/// from the fragment's first. `subs` are the fragments of large child subtrees built
-/// separately (in parallel), in the order the sequential collapse lays them out after
-/// `nodes`, each with the local index of the slot its own node fills.
-struct Frag<const W: usize> {
-    nodes: Vec<WideNode<W>>,
-    packets: Vec<TriPacket>,
-    subs: Vec<(usize, Frag<W>)>,
+/// How many wide nodes and leaf packets something becomes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Shape {
+    nodes: usize,
+    packets: usize,
 }
 
-/// The fragment of binary node `bin` (planned as a wide inner node). The sequential collapse
-/// fills a wide node, allocating its inner children at the end of the node array (and the
-/// packets of its leaf children), then fills those children from the last to the first, each
-/// with its whole subtree: so every wide node's descendants are one contiguous block, laid out
-/// as the node's children, then the blocks of its last child to its first. Subtrees of at
-/// least `par_refs` references build the blocks of their inner children as
-/// separate fragments in parallel; [`flatten`] joins them into exactly the sequential layout.
-fn fragment<const W: usize>(
-    bvh: &Bvh,
-    tris: Source<'_>,
-    plan: &Plan,
-    refs: &[u64],
+impl Shape {
+    const ONE_NODE: Shape = Shape {
+        nodes: 1,
+        packets: 0,
+    };
+
+    fn plus(self, o: Shape) -> Shape {
+        Shape {
+            nodes: self.nodes + o.nodes,
+            packets: self.packets + o.packets,
+        }
+    }
+
+    /// The shape of a wide leaf over `prims` distinct references: its packets of 4, or the
+    /// small subtree of [`Layout::big_leaf`] (`W` parts of a multiple of 4 references each).
+    fn leaf<const W: usize>(prims: usize) -> Shape {
+        if prims <= LEAF_MAX {
+            return Shape {
+                nodes: 0,
+                packets: prims.div_ceil(4),
+            };
+        }
+        let per = prims.div_ceil(W).div_ceil(4) * 4;
+        let (full, rest) = (prims / per, prims % per);
+        let mut s = Shape::ONE_NODE;
+        let part = Shape::leaf::<W>(per);
+        for _ in 0..full {
+            s = s.plus(part);
+        }
+        if rest > 0 {
+            s = s.plus(Shape::leaf::<W>(rest));
+        }
+        s
+    }
+
+    /// Packed into one word (both parts are below 2³², or the tree could not be encoded).
+    fn pack(self) -> u64 {
+        let (n, p) = (
+            u32::try_from(self.nodes).expect("too many wide nodes"),
+            u32::try_from(self.packets).expect("too many triangle packets"),
+        );
+        (n as u64) << 32 | p as u64
+    }
+
+    fn unpack(w: u64) -> Shape {
+        Shape {
+            nodes: (w >> 32) as usize,
+            packets: (w & 0xffff_ffff) as usize,
+        }
+    }
+}
+
+/// The binary nodes standing for the wide children of one wide node, in slot order.
+#[derive(Clone, Copy)]
+struct Kids {
+    list: [usize; 8],
+    len: usize,
+}
+
+impl Kids {
+    fn as_slice(&self) -> &[usize] {
+        &self.list[..self.len]
+    }
+}
+
+/// Reused buffers: the references of a leaf and the binary nodes still to visit.
+#[derive(Default)]
+struct Scratch {
+    prims: Vec<u32>,
+    todo: Vec<usize>,
+}
+
+/// Sorts at most [`LEAF_MAX`] values by rank, without a branch on the data: the value at `i`
+/// goes to the number of values below it plus the number of equal values before it (a
+/// comparison sort's branches mispredict on leaf-sized arrays, which made it a sixth of the
+/// collapse's time on the dragon).
+fn sort_small(v: &mut [u32]) {
+    let n = v.len();
+    assert!(n <= LEAF_MAX);
+    let mut out = [0u32; LEAF_MAX];
+    for (i, &x) in v.iter().enumerate() {
+        let below: usize = v.iter().map(|&y| (y < x) as usize).sum();
+        let equal_before: usize = v[..i].iter().map(|&y| (y == x) as usize).sum();
+        out[below + equal_before] = x;
+    }
+    v.copy_from_slice(&out[..n]);
+}
+
+/// Nested parallel sections deeper than this run sequentially (bounds the recursion on
+/// degenerate, list-like trees).
+const MAX_PAR_DEPTH: usize = 48;
+
+/// The layout of the wide tree, written straight into its final memory in two passes:
+///
+/// 1. [`count`](Layout::count) records, for every binary node that becomes a wide inner
+///    node, the [`Shape`] of its *block* (every wide node below it and every packet of its
+///    subtree);
+/// 2. [`place`](Layout::place) writes every wide node and packet at its final index.
+///
+/// The order is the depth-first one of a sequential collapse with a work stack: a wide node's
+/// block holds its children's slots (inner children and the nodes of oversized leaves, in
+/// slot order), then the blocks of its inner children from the last to the first; its
+/// packets are those of its leaf children in slot order, then those of its inner children's
+/// subtrees from the last to the first. Every block's range is known before it is written, so
+/// blocks are written in parallel (disjoint ranges) and the result does not depend on the
+/// thread count.
+struct Layout<'a, const W: usize> {
+    bvh: &'a Bvh,
+    tris: Source<'a>,
+    plan: &'a Plan,
+    refs: &'a [u64],
+    /// Wide nodes over at least this many references count and place their children's
+    /// blocks in parallel.
     par_refs: u64,
+    /// [`Shape::pack`]ed block shapes, by binary node (set by [`Layout::count`]).
+    blocks: Vec<AtomicU64>,
+}
+
+/// One wide inner node still to write: its binary node, its slot, and exactly the memory of
+/// its block and its packets.
+struct Job<'o, const W: usize> {
     bin: usize,
-) -> Frag<W> {
-    let mut c = Collapser::<W>::new(bvh, tris, plan, vec![WideNode::EMPTY]);
-    c.fill(bin, 0);
-    if refs[bin] < par_refs {
-        while let Some((b, w)) = c.work.pop() {
-            c.fill(b, w);
-        }
-        return Frag {
-            nodes: c.nodes,
-            packets: c.packets,
-            subs: Vec::new(),
-        };
-    }
-    use rayon::prelude::*;
-    let work = std::mem::take(&mut c.work);
-    // The sequential collapse pops its work stack: the last child first.
-    let subs = work
-        .into_par_iter()
-        .rev()
-        .map(|(b, w)| (w, fragment::<W>(bvh, tris, plan, refs, par_refs, b)))
-        .collect();
-    Frag {
-        nodes: c.nodes,
-        packets: c.packets,
-        subs,
-    }
+    slot: &'o mut MaybeUninit<WideNode<W>>,
+    out: Out<'o, W>,
 }
 
-/// The node and packet arrays of the whole tree from the root's fragment, written straight
-/// into their final memory: every fragment's block goes to the range the sequential collapse
-/// gives it, the fragments of large subtrees in parallel (disjoint ranges).
-fn flatten<const W: usize>(root: Frag<W>) -> (HugeSlice<WideNode<W>>, HugeSlice<TriPacket>) {
-    if root.subs.is_empty() {
-        // Built in one piece: local indices are the global ones.
-        return (root.nodes.into(), root.packets.into());
-    }
-    let (n_nodes, n_packets) = count(&root);
-    // The root's own node is node 0, its block starts at node 1.
-    let own = relocate(&root.nodes[0], 1, 0);
-    // SAFETY: `place` writes every element of the slices it is given (`count` is the size of
-    // a fragment's block and of its packets, checked in debug builds), and node 0 is written
-    // here.
-    unsafe {
-        let mut packets = None;
-        let nodes = HugeSlice::from_init(n_nodes, |nodes| {
-            let (first, block) = nodes.split_at_mut(1);
-            first[0].write(own);
-            packets = Some(HugeSlice::from_init(n_packets, |packets| {
-                place(&root, 1, 0, block, packets);
-            }));
-        });
-        (nodes, packets.expect("written above"))
-    }
-}
-
-/// Nodes (its own one included) and packets of a fragment and its sub-fragments.
-fn count<const W: usize>(f: &Frag<W>) -> (usize, usize) {
-    f.subs
-        .iter()
-        .fold((f.nodes.len(), f.packets.len()), |(n, p), (_, s)| {
-            let (sn, sp) = count(s);
-            // A sub-fragment's own node fills a slot of its parent.
-            (n + sn - 1, p + sp)
-        })
-}
-
-/// Writes the block of fragment `f` (every node but its own, which its parent writes) at
-/// global node `base` and its packets at `pbase`, then its sub-fragments' blocks after it, in
-/// the order of the sequential collapse; sub-fragments in parallel. `nodes` and `packets` are
-/// exactly the ranges of the block and of the packets of `f` and its sub-fragments.
-fn place<const W: usize>(
-    f: &Frag<W>,
+/// A range of the final node and packet arrays, written from its start.
+struct Out<'o, const W: usize> {
+    nodes: &'o mut [MaybeUninit<WideNode<W>>],
+    /// Global index of `nodes[0]`.
     base: usize,
+    packets: &'o mut [MaybeUninit<TriPacket>],
+    /// Global index of `packets[0]`.
     pbase: usize,
-    nodes: &mut [MaybeUninit<WideNode<W>>],
-    packets: &mut [MaybeUninit<TriPacket>],
-) {
-    debug_assert_eq!((nodes.len() + 1, packets.len()), count(f));
-    let own = f.nodes.len() - 1;
-    let (mine, mut rest) = nodes.split_at_mut(own);
-    for (out, n) in mine.iter_mut().zip(&f.nodes[1..]) {
-        out.write(relocate(n, base, pbase));
-    }
-    let (pmine, mut prest) = packets.split_at_mut(f.packets.len());
-    for (out, p) in pmine.iter_mut().zip(&f.packets) {
-        out.write(*p);
-    }
-    let (mut b, mut pb) = (base + own, pbase + f.packets.len());
-    let mut jobs = Vec::with_capacity(f.subs.len());
-    for (w, sub) in &f.subs {
-        let (sn, sp) = count(sub);
-        // The sub-fragment's own node fills slot `w` of this fragment's block.
-        mine[w - 1].write(relocate(&sub.nodes[0], b, pb));
-        let (sub_nodes, r) = std::mem::take(&mut rest).split_at_mut(sn - 1);
-        let (sub_packets, pr) = std::mem::take(&mut prest).split_at_mut(sp);
-        rest = r;
-        prest = pr;
-        jobs.push((sub, b, pb, sub_nodes, sub_packets));
-        b += sn - 1;
-        pb += sp;
-    }
-    use rayon::prelude::*;
-    jobs.into_par_iter()
-        .for_each(|(sub, b, pb, n, p)| place(sub, b, pb, n, p));
 }
 
-/// A fragment's node with global indices: local node `j >= 1` is node `base + j - 1` (no
-/// child is the fragment's own node `0`), packets start at `pbase`.
-fn relocate<const W: usize>(n: &WideNode<W>, base: usize, pbase: usize) -> WideNode<W> {
-    let mut out = *n;
-    for s in 0..W {
-        if n.valid & (1 << s) == 0 {
-            continue;
+impl<'o, const W: usize> Out<'o, W> {
+    /// The next node: its global index and its slot.
+    fn node(&mut self) -> (u32, &'o mut MaybeUninit<WideNode<W>>) {
+        let (first, rest) = std::mem::take(&mut self.nodes)
+            .split_first_mut()
+            .expect("the counted block has room for this node");
+        let i = self.base;
+        self.nodes = rest;
+        self.base += 1;
+        (i as u32, first)
+    }
+
+    /// Writes the next packet; returns its global index.
+    fn packet(&mut self, p: TriPacket) -> usize {
+        let (first, rest) = std::mem::take(&mut self.packets)
+            .split_first_mut()
+            .expect("the counted block has room for this packet");
+        first.write(p);
+        let i = self.pbase;
+        self.packets = rest;
+        self.pbase += 1;
+        i
+    }
+
+    /// Splits off the first `s.nodes` nodes and `s.packets` packets.
+    fn take(&mut self, s: Shape) -> Out<'o, W> {
+        let (nodes, rest) = std::mem::take(&mut self.nodes).split_at_mut(s.nodes);
+        let (packets, prest) = std::mem::take(&mut self.packets).split_at_mut(s.packets);
+        let out = Out {
+            nodes,
+            base: self.base,
+            packets,
+            pbase: self.pbase,
+        };
+        self.nodes = rest;
+        self.packets = prest;
+        self.base += s.nodes;
+        self.pbase += s.packets;
+        out
+    }
+
+    fn is_used_up(&self) -> bool {
+        self.nodes.is_empty() && self.packets.is_empty()
+    }
+}
+
+impl<const W: usize> Layout<'_, W> {
+    /// Writes the whole tree; returns the nodes, the packets and the root.
+    fn write(&self) -> (HugeSlice<WideNode<W>>, HugeSlice<TriPacket>, u32) {
+        let mut s = Scratch::default();
+        let shape = if self.plan.is_leaf(0) {
+            Shape::leaf::<W>(self.leaf_size(0, &mut s))
+        } else {
+            self.count(0, 0);
+            Shape::ONE_NODE.plus(self.block(0))
+        };
+        let mut root = NO_ROOT;
+        let mut nodes = None;
+        // SAFETY: both closures write every element of the slices they are given: the counted
+        // shapes are exactly what the writers consume, which `Layout::place` asserts for every
+        // block (and `write_root` for the whole tree).
+        let packets = unsafe {
+            HugeSlice::from_init(shape.packets, |packets| {
+                nodes = Some(HugeSlice::from_init(shape.nodes, |nodes| {
+                    root = self.write_root(nodes, packets, &mut s);
+                }));
+            })
+        };
+        (nodes.expect("written above"), packets, root)
+    }
+
+    fn write_root(
+        &self,
+        nodes: &mut [MaybeUninit<WideNode<W>>],
+        packets: &mut [MaybeUninit<TriPacket>],
+        s: &mut Scratch,
+    ) -> u32 {
+        if self.plan.is_leaf(0) {
+            let mut out = Out {
+                nodes,
+                base: 0,
+                packets,
+                pbase: 0,
+            };
+            let root = self.leaf(0, &mut out, s);
+            assert!(out.is_used_up(), "the root leaf's shape was miscounted");
+            return root;
         }
-        let c = n.children[s];
-        out.children[s] = if c & LEAF_BIT != 0 {
-            let (first, count) = decode_leaf(c);
-            let first = first + pbase;
+        // The root is node 0, its block starts at node 1.
+        let (slot, nodes) = nodes.split_first_mut().expect("the root's node");
+        let out = Out {
+            nodes,
+            base: 1,
+            packets,
+            pbase: 0,
+        };
+        self.place(Job { bin: 0, slot, out }, 0);
+        0
+    }
+
+    /// The binary nodes standing for the wide children of binary inner node `bin` (planned
+    /// as a wide node): the plan's best distribution of its subtree over `W` slots.
+    fn kids(&self, bin: usize) -> Kids {
+        let mut k = Kids {
+            list: [0; 8],
+            len: 0,
+        };
+        let left = self.plan.split[bin] as usize;
+        self.plan.gather(self.bvh, bin + 1, left, &mut k);
+        let right = self.bvh.nodes[bin].index as usize;
+        self.plan.gather(self.bvh, right, W - left, &mut k);
+        k
+    }
+
+    fn block(&self, bin: usize) -> Shape {
+        Shape::unpack(self.blocks[bin].load(Ordering::Relaxed))
+    }
+
+    /// The references of the wide leaf standing for binary node `bin`, into `s.prims`:
+    /// sorted by index, without duplicates (a tree without spatial splits has none, so the
+    /// dedup is skipped there: a primitive that such a tree references twice is stored twice,
+    /// which changes no answer).
+    fn leaf_prims(&self, bin: usize, s: &mut Scratch) {
+        let Scratch { prims, todo } = s;
+        prims.clear();
+        todo.clear();
+        todo.push(bin);
+        while let Some(i) = todo.pop() {
+            let node = &self.bvh.nodes[i];
+            if node.is_leaf() {
+                prims.extend_from_slice(self.bvh.leaf_prims(node));
+            } else {
+                todo.push(node.index as usize);
+                todo.push(i + 1);
+            }
+        }
+        if prims.len() <= LEAF_MAX {
+            sort_small(prims);
+        } else {
+            prims.sort_unstable();
+        }
+        if self.bvh.spatial_splits {
+            prims.dedup();
+        }
+    }
+
+    /// The number of references of the wide leaf standing for binary node `bin`.
+    fn leaf_size(&self, bin: usize, s: &mut Scratch) -> usize {
+        if self.bvh.spatial_splits {
+            self.leaf_prims(bin, s);
+            s.prims.len()
+        } else {
+            self.refs[bin] as usize
+        }
+    }
+
+    /// Pass 1: the block shapes of `root` (a binary node planned as a wide inner node) and of
+    /// every wide inner node below it, children before parents (an explicit stack: the depth
+    /// of the tree is not bounded).
+    fn count(&self, root: usize, par_depth: usize) {
+        let mut s = Scratch::default();
+        // A node is pushed twice: without its children (to expand it), then with them (to sum
+        // their shapes once they are counted).
+        let mut stack: Vec<(usize, Option<Kids>)> = vec![(root, None)];
+        while let Some((bin, kids)) = stack.pop() {
+            if let Some(kids) = kids {
+                let mut shape = Shape::default();
+                for &c in kids.as_slice() {
+                    shape = shape.plus(if self.plan.is_leaf(c) {
+                        Shape::leaf::<W>(self.leaf_size(c, &mut s))
+                    } else {
+                        Shape::ONE_NODE.plus(self.block(c))
+                    });
+                }
+                self.blocks[bin].store(shape.pack(), Ordering::Relaxed);
+                continue;
+            }
+            let kids = self.kids(bin);
+            stack.push((bin, Some(kids)));
+            let inner = kids
+                .as_slice()
+                .iter()
+                .copied()
+                .filter(|&c| !self.plan.is_leaf(c));
+            if self.refs[bin] >= self.par_refs && par_depth < MAX_PAR_DEPTH {
+                use rayon::prelude::*;
+                let inner: Vec<usize> = inner.collect();
+                inner
+                    .into_par_iter()
+                    .for_each(|c| self.count(c, par_depth + 1));
+            } else {
+                stack.extend(inner.map(|c| (c, None)));
+            }
+        }
+    }
+
+    /// Pass 2: writes the wide node of `job` and its whole block (an explicit stack; the blocks
+    /// of large nodes' children in parallel).
+    fn place<'o>(&self, job: Job<'o, W>, par_depth: usize) {
+        let mut s = Scratch::default();
+        let mut stack = vec![job];
+        let mut next = Vec::with_capacity(W);
+        while let Some(job) = stack.pop() {
+            let big = self.refs[job.bin] >= self.par_refs && par_depth < MAX_PAR_DEPTH;
+            self.fill(job, &mut s, &mut next);
+            if big {
+                use rayon::prelude::*;
+                let jobs = std::mem::take(&mut next);
+                jobs.into_par_iter()
+                    .for_each(|j| self.place(j, par_depth + 1));
+            } else {
+                stack.append(&mut next);
+            }
+        }
+    }
+
+    /// Writes the wide node of `job` (its leaf children's packets and oversized leaves'
+    /// nodes included); pushes onto `next` the jobs of its inner children, each with its
+    /// block's range.
+    fn fill<'o>(&self, job: Job<'o, W>, s: &mut Scratch, next: &mut Vec<Job<'o, W>>) {
+        let Job { bin, slot, mut out } = job;
+        let nodes = &self.bvh.nodes;
+        let kids = self.kids(bin);
+        let mut node = WideNode::<W>::EMPTY;
+        let mut inner: [(usize, Option<&'o mut MaybeUninit<WideNode<W>>>); W] =
+            std::array::from_fn(|_| (0, None));
+        let mut m = 0;
+        for (k, &c) in kids.as_slice().iter().enumerate() {
+            for (row, v) in node.bounds.iter_mut().zip(rows(&nodes[c].bounds())) {
+                row[k] = v;
+            }
+            node.children[k] = if self.plan.is_leaf(c) {
+                self.leaf(c, &mut out, s)
+            } else {
+                let (i, child_slot) = out.node();
+                inner[m] = (c, Some(child_slot));
+                m += 1;
+                i
+            };
+            node.valid |= 1 << k;
+        }
+        node.set_order();
+        slot.write(node);
+        for (c, child_slot) in inner[..m].iter_mut().rev() {
+            let child_out = out.take(self.block(*c));
+            next.push(Job {
+                bin: *c,
+                slot: child_slot.take().expect("set above"),
+                out: child_out,
+            });
+        }
+        assert!(out.is_used_up(), "a block's shape was miscounted");
+    }
+
+    /// Writes the wide leaf standing for binary node `bin` (its packets, and its nodes when
+    /// it holds more than [`LEAF_MAX`] references); returns the child reference.
+    fn leaf(&self, bin: usize, out: &mut Out<'_, W>, s: &mut Scratch) -> u32 {
+        self.leaf_prims(bin, s);
+        let prims = &mut s.prims;
+        for &p in prims.iter() {
+            self.tris.prefetch(p);
+        }
+        for &p in prims.iter() {
+            assert!(
+                (p as usize) < self.tris.len(),
+                "the BVH references triangle {p}, but there are only {}",
+                self.tris.len()
+            );
+        }
+        let bounds = self.bvh.nodes[bin].bounds();
+        if prims.len() > LEAF_MAX {
+            // Sort along the longest axis so that the sub-leaves have tight boxes.
+            let axis = bounds.largest_axis();
+            let key = |p: u32| self.tris.centroid(p)[axis];
+            prims.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+        }
+        self.big_leaf(prims, &bounds, out)
+    }
+
+    fn big_leaf(&self, prims: &[u32], bounds: &Aabb, out: &mut Out<'_, W>) -> u32 {
+        if prims.len() <= LEAF_MAX {
+            let first = out.pbase;
             assert!(
                 first + MAX_LEAF_PACKETS <= LEAF_FIRST_MASK as usize,
                 "too many triangle packets"
             );
-            encode_leaf(first, count)
-        } else {
-            debug_assert!(c >= 1);
-            (base + c as usize - 1) as u32
-        };
+            for chunk in prims.chunks(4) {
+                out.packet(self.packet(chunk));
+            }
+            return encode_leaf(first, prims.len().div_ceil(4));
+        }
+        // `W` children of (a multiple of 4) references each.
+        let per = prims.len().div_ceil(W).div_ceil(4) * 4;
+        let (k, slot) = out.node();
+        let mut node = WideNode::<W>::EMPTY;
+        for (s, part) in prims.chunks(per).enumerate() {
+            let mut b = Aabb::EMPTY;
+            for &p in part {
+                b.grow_aabb(&self.tris.bounds(p));
+            }
+            // With spatial splits the triangles may stick out of the leaf: clip the box.
+            let mut b = b.intersection(bounds);
+            if b.is_empty() {
+                b = *bounds;
+            }
+            for (row, v) in node.bounds.iter_mut().zip(rows(&b)) {
+                row[s] = v;
+            }
+            node.children[s] = self.big_leaf(part, &b, out);
+            node.valid |= 1 << s;
+        }
+        node.set_order();
+        slot.write(node);
+        k
     }
-    out
+
+    fn packet(&self, prims: &[u32]) -> TriPacket {
+        let mut p = TriPacket {
+            v: [[[f32::NAN; 4]; 3]; 3],
+            prims: [u32::MAX; 4],
+        };
+        for (lane, &prim) in prims.iter().enumerate() {
+            self.tris.fill_lane(&mut p, lane, prim);
+        }
+        p
+    }
 }
 
 /// Most entries the traversal stack can hold, plus `W`: at an inner node `n` it holds the
@@ -614,148 +945,6 @@ fn stack_bound<const W: usize>(nodes: &[WideNode<W>], root: u32) -> usize {
 
 fn rows(b: &Aabb) -> [f32; 6] {
     [b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z]
-}
-
-impl<'a, const W: usize> Collapser<'a, W> {
-    fn new(bvh: &'a Bvh, tris: Source<'a>, plan: &'a Plan, nodes: Vec<WideNode<W>>) -> Self {
-        Self {
-            bvh,
-            tris,
-            nodes,
-            packets: Vec::new(),
-            work: Vec::new(),
-            plan,
-            prims: Vec::new(),
-            todo: Vec::new(),
-        }
-    }
-
-    /// The wide child standing for binary node `bin`: a leaf over its subtree or a (not yet
-    /// filled) wide node, as planned.
-    fn child(&mut self, bin: usize) -> u32 {
-        let node = self.bvh.nodes[bin];
-        if self.plan.is_leaf(bin) {
-            let mut prims = std::mem::take(&mut self.prims);
-            self.subtree_prims(bin, &mut prims);
-            let leaf = self.leaf(&mut prims, &node.bounds());
-            self.prims = prims;
-            return leaf;
-        }
-        let k = self.nodes.len();
-        self.nodes.push(WideNode::EMPTY);
-        self.work.push((bin, k));
-        k as u32
-    }
-
-    /// The distinct references of a binary subtree, sorted, into `prims`.
-    fn subtree_prims(&mut self, bin: usize, prims: &mut Vec<u32>) {
-        prims.clear();
-        let todo = &mut self.todo;
-        todo.clear();
-        todo.push(bin);
-        while let Some(i) = todo.pop() {
-            let node = &self.bvh.nodes[i];
-            if node.is_leaf() {
-                prims.extend_from_slice(self.bvh.leaf_prims(node));
-            } else {
-                todo.push(node.index as usize);
-                todo.push(i + 1);
-            }
-        }
-        prims.sort_unstable();
-        prims.dedup();
-    }
-
-    /// Fills wide node `wide` from binary inner node `bin`: its children are the binary nodes
-    /// of the plan's best distribution of `bin`'s subtree over `W` slots, in depth-first order.
-    fn fill(&mut self, bin: usize, wide: usize) {
-        let bvh = self.bvh;
-        let nodes = &bvh.nodes;
-        let mut list: Vec<usize> = Vec::with_capacity(W);
-        let k = self.plan.split[bin] as usize;
-        self.plan.gather(bvh, bin + 1, k, &mut list);
-        self.plan
-            .gather(bvh, nodes[bin].index as usize, W - k, &mut list);
-        let mut out = WideNode::<W>::EMPTY;
-        for (s, &c) in list.iter().enumerate() {
-            let r = rows(&nodes[c].bounds());
-            for (row, v) in out.bounds.iter_mut().zip(r) {
-                row[s] = v;
-            }
-            out.children[s] = self.child(c);
-            out.valid |= 1 << s;
-        }
-        out.set_order();
-        self.nodes[wide] = out;
-    }
-
-    /// A leaf over `prims` (distinct) inside `bounds`: packets of 4, or a small subtree of
-    /// leaves when there are more than [`LEAF_MAX`] references.
-    fn leaf(&mut self, prims: &mut [u32], bounds: &Aabb) -> u32 {
-        for &p in prims.iter() {
-            assert!(
-                (p as usize) < self.tris.len(),
-                "the BVH references triangle {p}, but there are only {}",
-                self.tris.len()
-            );
-        }
-        if prims.len() > LEAF_MAX {
-            // Sort along the longest axis so that the sub-leaves have tight boxes.
-            let axis = bounds.largest_axis();
-            let key = |p: u32| self.tris.centroid(p)[axis];
-            prims.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
-        }
-        self.big_leaf(prims, bounds)
-    }
-
-    fn big_leaf(&mut self, prims: &[u32], bounds: &Aabb) -> u32 {
-        if prims.len() <= LEAF_MAX {
-            let first = self.packets.len();
-            assert!(
-                first + MAX_LEAF_PACKETS <= LEAF_FIRST_MASK as usize,
-                "too many triangle packets"
-            );
-            for chunk in prims.chunks(4) {
-                self.packets.push(self.packet(chunk));
-            }
-            return encode_leaf(first, self.packets.len() - first);
-        }
-        // `W` children of (a multiple of 4) references each.
-        let per = prims.len().div_ceil(W).div_ceil(4) * 4;
-        let k = self.nodes.len();
-        self.nodes.push(WideNode::EMPTY);
-        let mut out = WideNode::<W>::EMPTY;
-        for (s, part) in prims.chunks(per).enumerate() {
-            let mut b = Aabb::EMPTY;
-            for &p in part {
-                b.grow_aabb(&self.tris.bounds(p));
-            }
-            // With spatial splits the triangles may stick out of the leaf: clip the box.
-            let mut b = b.intersection(bounds);
-            if b.is_empty() {
-                b = *bounds;
-            }
-            for (row, v) in out.bounds.iter_mut().zip(rows(&b)) {
-                row[s] = v;
-            }
-            out.children[s] = self.big_leaf(part, &b);
-            out.valid |= 1 << s;
-        }
-        out.set_order();
-        self.nodes[k] = out;
-        k as u32
-    }
-
-    fn packet(&self, prims: &[u32]) -> TriPacket {
-        let mut p = TriPacket {
-            v: [[[f32::NAN; 4]; 3]; 3],
-            prims: [u32::MAX; 4],
-        };
-        for (lane, &prim) in prims.iter().enumerate() {
-            self.tris.fill_lane(&mut p, lane, prim);
-        }
-        p
-    }
 }
 
 #[cfg(test)]
@@ -972,6 +1161,20 @@ mod tests {
             bits(&collapse::<8>(&bvh, Source::Triangles(&tris)))
         );
         same_bits_in_parallel(&bvh, &tris, &w);
+    }
+
+    #[test]
+    fn the_rank_sort_sorts_with_duplicates() {
+        let mut r = Pcg32::new(9, 1);
+        for n in 0..=LEAF_MAX {
+            for range in [4, 1000] {
+                let mut v: Vec<u32> = (0..n).map(|_| r.next_u32() % range).collect();
+                let mut expected = v.clone();
+                expected.sort_unstable();
+                sort_small(&mut v);
+                assert_eq!(v, expected);
+            }
+        }
     }
 
     #[test]

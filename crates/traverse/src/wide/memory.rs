@@ -61,8 +61,8 @@ impl<T: Copy> HugeSlice<T> {
     }
 
     /// An array of `len` values written by `init` straight into the final (huge-page advised)
-    /// memory, with no intermediate copy: the wide collapse writes its fragments there in
-    /// parallel.
+    /// memory, with no intermediate copy: the wide collapse writes its blocks there in
+    /// parallel. `init` runs exactly once, also when `len` is 0.
     ///
     /// # Safety
     /// `init` must initialise every element of the slice it is given.
@@ -73,10 +73,16 @@ impl<T: Copy> HugeSlice<T> {
         len: usize,
         init: impl FnOnce(&mut [std::mem::MaybeUninit<T>]),
     ) -> Self {
+        assert!(
+            std::mem::size_of::<T>() > 0,
+            "no arrays of zero-sized values"
+        );
         let bytes = len
             .checked_mul(std::mem::size_of::<T>())
             .expect("array too large");
         if bytes == 0 {
+            // `init` still runs (on no elements): callers may nest their writing in it.
+            init(&mut []);
             return Self::empty();
         }
         let huge = bytes >= HUGE_THRESHOLD;
