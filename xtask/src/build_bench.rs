@@ -167,7 +167,9 @@ pub fn run(a: Args) -> Result<()> {
     if engines.is_empty() {
         bail!("nothing to time: give --builders and/or --embree");
     }
-    let threads = util::with_threads(a.threads, rayon::current_num_threads)?;
+    // One pool for every sahara build of the run (Embree, too, keeps its threads).
+    let pool = util::pool(a.threads)?;
+    let threads = pool.current_num_threads();
     let timer = embree_timer(threads, !a.embree.is_empty())?;
     let rounds = a.rounds.max(1);
     let cost = CostModel::default();
@@ -182,7 +184,7 @@ pub fn run(a: Args) -> Result<()> {
             match e {
                 Engine::Sahara(_, b, level) => {
                     simd::set_max(*level);
-                    let bvh = util::with_threads(a.threads, || b.build(&input))??;
+                    let bvh = pool.install(|| b.build(&input))?;
                     s.sah = Some(sahara_metrics::sah(&bvh, &cost));
                 }
                 Engine::Embree(_, q) => {
@@ -196,7 +198,7 @@ pub fn run(a: Args) -> Result<()> {
                 match &engines[idx] {
                     Engine::Sahara(_, b, level) => {
                         simd::set_max(*level);
-                        let (build, collapse) = util::with_threads(a.threads, || {
+                        let (build, collapse) = pool.install(|| {
                             let t0 = Instant::now();
                             let bvh = b.build(&input);
                             let build = t0.elapsed().as_secs_f64();
@@ -206,7 +208,7 @@ pub fn run(a: Args) -> Result<()> {
                             let collapse = t1.elapsed().as_secs_f64();
                             drop(wide);
                             anyhow::Ok((build, collapse))
-                        })??;
+                        })?;
                         samples[idx].build.push(build * 1e3);
                         samples[idx].collapse.push(collapse * 1e3);
                     }

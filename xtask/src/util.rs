@@ -6,12 +6,18 @@ use std::time::Instant;
 
 /// Runs `f` in a rayon pool of `threads` threads (all cores when `None`).
 pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
+    Ok(pool(threads)?.install(f))
+}
+
+/// A rayon pool of `threads` threads (all cores when `None`), to be reused: a benchmark that
+/// times several runs keeps one pool, as a renderer does and as Embree keeps its threads, so
+/// that no run starts on freshly spawned, cold threads.
+pub fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
         b = b.num_threads(n.max(1));
     }
-    let pool = b.build().context("creating the thread pool")?;
-    Ok(pool.install(f))
+    b.build().context("creating the thread pool")
 }
 
 /// The thread count a pool would get.
