@@ -359,7 +359,9 @@ impl<'a> BinnedRule<'a> {
         if maps.iter().all(Option::is_none) {
             return None;
         }
-        if 2 * refs.len() <= k && k <= 64 {
+        if refs.len() == 2 {
+            self.best_plane_of_two(refs, &maps)
+        } else if 2 * refs.len() <= k && k <= 64 {
             self.best_plane_sparse(refs, &maps, s)
         } else {
             self.best_plane_binned(refs, &maps, s)
@@ -403,6 +405,53 @@ impl<'a> BinnedRule<'a> {
             n_left,
             left,
             right,
+        })
+    }
+
+    /// [`best_plane`](Self::best_plane) for a node of two references (a third of all nodes),
+    /// without bins. Bit for bit [`best_plane_sparse`](Self::best_plane_sparse) and
+    /// [`best_plane_binned`](Self::best_plane_binned):
+    ///
+    /// * an axis offers a plane only when the two references fall into different bins, and
+    ///   then exactly one (the first after the lower bin), with one reference on each side;
+    /// * so every offered plane has the score `A_a + A_b` of the two boxes' half areas, in one
+    ///   order or the other (`f64` addition commutes bit for bit), and the same imbalance: the
+    ///   tie goes to the first such axis;
+    /// * each side's bounds are one reference's box, as the bins' unions of one box are.
+    fn best_plane_of_two(&self, refs: &[PrimRef], maps: &[Option<BinMap>; 3]) -> Option<Plane> {
+        debug_assert_eq!(refs.len(), 2);
+        let top = (self.cfg.bins - 1) as f32;
+        let lanes = |f: fn(&BinMap) -> f32| -> [f32; 4] {
+            std::array::from_fn(|a| {
+                if a < 3 {
+                    maps[a].as_ref().map_or(0.0, f)
+                } else {
+                    0.0
+                }
+            })
+        };
+        let (lo4, scale4) = (lanes(|m| m.min), lanes(|m| m.scale));
+        let i0 = bins::bin_indices(&refs[0], lo4, scale4, top);
+        let i1 = bins::bin_indices(&refs[1], lo4, scale4, top);
+        let axis = (0..3).find(|&a| maps[a].is_some() && i0[a] != i1[a])?;
+        let (low, left, right) = if i0[axis] < i1[axis] {
+            (i0[axis], &refs[0], &refs[1])
+        } else {
+            (i1[axis], &refs[1], &refs[0])
+        };
+        let aabb = |r: &PrimRef| {
+            Aabb::new(
+                Vec3A::new(r.min[0], r.min[1], r.min[2]),
+                Vec3A::new(r.max[0], r.max[1], r.max[2]),
+            )
+        };
+        Some(Plane {
+            axis,
+            plane: low as usize + 1,
+            map: maps[axis].expect("a mapped axis"),
+            n_left: 1,
+            left: aabb(left),
+            right: aabb(right),
         })
     }
 
@@ -842,6 +891,41 @@ mod tests {
     }
 
     #[test]
+    fn nodes_of_two_equal_full_binning() {
+        let mut rng = Pcg32::new(8, 1);
+        // Coarse positions and sizes: shared bins, equal centroids on some axes, signed zeros,
+        // and boxes of very different sizes.
+        let coord = |rng: &mut Pcg32| [0.0, -0.0, 1.0, 2.5, 1e-30, 1e30][rng.below(6) as usize];
+        let tris: Vec<Triangle> = (0..64)
+            .map(|_| {
+                let o = Vec3A::new(coord(&mut rng), coord(&mut rng), coord(&mut rng));
+                let s = [0.0, 0.5, 3.0][rng.below(3) as usize];
+                Triangle::new(o, o + Vec3A::X * s, o + Vec3A::Y * (s + 1.0))
+            })
+            .collect();
+        let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+        let mut found = 0;
+        for bins in [2, 8, 32, 128] {
+            let cfg = BinnedConfig::with_bins(bins);
+            let rule = BinnedRule::new(&input, &cfg, FillBackend::Simd);
+            let mut s = Scratch::default();
+            for _ in 0..2000 {
+                let prims = rule.refs_of(&[rng.below(64), rng.below(64)]);
+                let maps = bins::maps(&bounds_of(&prims).centroids, bins);
+                if maps.iter().all(Option::is_none) {
+                    continue;
+                }
+                let fast = rule.best_plane_of_two(&prims, &maps);
+                found += usize::from(fast.as_ref().is_some_and(|p| p.axis > 0));
+                same_plane(fast, rule.best_plane_binned(&prims, &maps, &mut s));
+            }
+        }
+        // Planes on the second or third axis were found too (the first axis ties them away
+        // when it separates).
+        assert!(found > 500, "{found}");
+    }
+
+    #[test]
     fn small_node_path_equals_full_binning() {
         let mut rng = Pcg32::new(3, 4);
         let tris: Vec<Triangle> = (0..64)
@@ -866,23 +950,31 @@ mod tests {
                 let maps = bins::maps(&cb, bins);
                 let a = rule.best_plane_sparse(&prims, &maps, &mut s);
                 let b = rule.best_plane_binned(&prims, &maps, &mut s);
-                match (a, b) {
-                    (None, None) => {}
-                    (Some(a), Some(b)) => {
-                        assert_eq!((a.axis, a.plane, a.n_left), (b.axis, b.plane, b.n_left));
-                        // Bit for bit (signed zeros included), not only `==`.
-                        let bits = |b: &Aabb| {
-                            (
-                                b.min.to_array().map(f32::to_bits),
-                                b.max.to_array().map(f32::to_bits),
-                            )
-                        };
-                        assert_eq!(bits(&a.left), bits(&b.left));
-                        assert_eq!(bits(&a.right), bits(&b.right));
-                    }
-                    _ => panic!("one path found a plane, the other did not"),
+                if n == 2 {
+                    same_plane(rule.best_plane_of_two(&prims, &maps), b);
                 }
+                same_plane(a, b);
             }
+        }
+    }
+
+    /// Asserts that two searches found the same plane, bit for bit.
+    fn same_plane(a: Option<Plane>, b: Option<Plane>) {
+        match (a, b) {
+            (None, None) => {}
+            (Some(a), Some(b)) => {
+                assert_eq!((a.axis, a.plane, a.n_left), (b.axis, b.plane, b.n_left));
+                // Bit for bit (signed zeros included), not only `==`.
+                let bits = |b: &Aabb| {
+                    (
+                        b.min.to_array().map(f32::to_bits),
+                        b.max.to_array().map(f32::to_bits),
+                    )
+                };
+                assert_eq!(bits(&a.left), bits(&b.left));
+                assert_eq!(bits(&a.right), bits(&b.right));
+            }
+            _ => panic!("one path found a plane, the other did not"),
         }
     }
 }
