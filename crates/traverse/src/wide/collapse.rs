@@ -163,11 +163,11 @@ struct Plan {
 }
 
 impl Plan {
-    /// The plan for `bvh`, whose subtree `n` holds `refs[n]` references. `sizes`, when the
-    /// layout is depth first with every subtree contiguous (subtree `n` is the node range
-    /// `n..n + sizes[n]`), lets large subtrees be planned in parallel; the plan is the same
-    /// bit for bit (every node's row depends on its children's rows only).
-    fn new(bvh: &Bvh, refs: &[u64], width: usize, sizes: Option<&[u32]>, par: Par) -> Self {
+    /// The plan for `bvh`; fills `refs[n]` with the references of subtree `n`. Where the
+    /// layout is depth first with every subtree a contiguous node range (what the builders
+    /// make), large subtrees are planned with both children at once; the plan is the same bit
+    /// for bit (every node's row depends on its children's rows only).
+    fn new(bvh: &Bvh, refs: &mut [u64], width: usize, par: Par) -> Self {
         let n = bvh.nodes.len();
         // Areas relative to the root's, so that `f32` costs (half the memory of `f64`; the plan
         // has `width` of them per binary node) neither overflow nor lose precision.
@@ -182,16 +182,16 @@ impl Plan {
         let mut split = vec![0u8; n];
         let rows = PlanRows {
             bvh,
-            refs,
             width,
             scale,
             par_nodes: par.plan_nodes,
         };
-        match sizes {
-            Some(sizes) if n > par.plan_nodes => {
-                rows.subtree(sizes, 0, &mut cost, &mut choice, &mut split);
-            }
-            _ => rows.range(0, n, &mut cost, &mut choice, &mut split),
+        let done =
+            n > par.plan_nodes && rows.subtree(0, n, refs, &mut cost, &mut choice, &mut split);
+        if !done {
+            // One range in node order: right for any layout (children follow their parent).
+            let all = rows.range(0, n, refs, &mut cost, &mut choice, &mut split);
+            assert!(all, "a child precedes its parent or lies outside the tree");
         }
         Self {
             width,
@@ -245,61 +245,100 @@ impl Par {
 /// costs and choices (`cost` and `choice` slices start at the row of some node `base`).
 struct PlanRows<'a> {
     bvh: &'a Bvh,
-    refs: &'a [u64],
     width: usize,
     scale: f64,
     par_nodes: usize,
 }
 
 impl PlanRows<'_> {
-    /// Rows of the nodes `a..b` (slices starting at node `a`), last node first; the children
-    /// of every node of the range are in the range after it.
-    fn range(&self, a: usize, b: usize, cost: &mut [f32], choice: &mut [u8], split: &mut [u8]) {
+    /// Rows and reference counts of the nodes `a..b` (slices starting at node `a`), last node
+    /// first. `false` when a node's child lies outside the range: then the range is not a
+    /// closed part of the tree (the layout is not depth first) and its rows are incomplete.
+    fn range(
+        &self,
+        a: usize,
+        b: usize,
+        refs: &mut [u64],
+        cost: &mut [f32],
+        choice: &mut [u8],
+        split: &mut [u8],
+    ) -> bool {
         let w = self.width;
         for i in (a..b).rev() {
             let node = &self.bvh.nodes[i];
             let row = (i - a) * w;
             let (head, tail) = cost.split_at_mut(row + w);
-            let kids = (!node.is_leaf()).then(|| {
+            let kids = if node.is_leaf() {
+                refs[i - a] = node.count as u64;
+                None
+            } else {
                 let (l, r) = (i + 1, node.index as usize);
+                if r >= b || l >= b {
+                    return false;
+                }
+                refs[i - a] = refs[l - a].saturating_add(refs[r - a]);
                 let l = &tail[(l - i - 1) * w..][..w];
                 let r = &tail[(r - i - 1) * w..][..w];
-                (l, r)
-            });
-            split[i - a] = self.row(i, kids, &mut head[row..], &mut choice[row..row + w]);
+                Some((l, r))
+            };
+            split[i - a] = self.row(
+                i,
+                refs[i - a],
+                kids,
+                &mut head[row..],
+                &mut choice[row..row + w],
+            );
         }
+        true
     }
 
-    /// Rows of the subtree of `i`, the node range `i..i + sizes[i]` (slices starting at node
-    /// `i`), both children in parallel when the subtree is large.
+    /// Rows of the subtree of `i`, taken to be the node range `i..end` (slices starting at
+    /// node `i`): in a depth-first layout its left child's subtree is `i + 1..r` and its right
+    /// child's `r..end`, planned in parallel when the subtree is large. `false` when the layout
+    /// is not depth first (a child outside its range); the rows are then incomplete.
     fn subtree(
         &self,
-        sizes: &[u32],
         i: usize,
+        end: usize,
+        refs: &mut [u64],
         cost: &mut [f32],
         choice: &mut [u8],
         split: &mut [u8],
-    ) {
-        let size = sizes[i] as usize;
+    ) -> bool {
         let node = &self.bvh.nodes[i];
-        if size <= self.par_nodes || node.is_leaf() {
-            self.range(i, i + size, cost, choice, split);
-            return;
+        if end - i <= self.par_nodes || node.is_leaf() {
+            return self.range(i, end, refs, cost, choice, split);
+        }
+        let r = node.index as usize;
+        if r <= i + 1 || r >= end {
+            return false;
         }
         let w = self.width;
-        // Layout: row `i`, then the left subtree `i + 1..r`, then the right one `r..`.
-        let nl = sizes[i + 1] as usize;
+        let nl = r - i - 1;
+        let (own_refs, kids_refs) = refs.split_at_mut(1);
+        let (l_refs, r_refs) = kids_refs.split_at_mut(nl);
         let (own_cost, kids_cost) = cost.split_at_mut(w);
         let (l_cost, r_cost) = kids_cost.split_at_mut(nl * w);
         let (own_choice, kids_choice) = choice.split_at_mut(w);
         let (l_choice, r_choice) = kids_choice.split_at_mut(nl * w);
         let (own_split, kids_split) = split.split_at_mut(1);
         let (l_split, r_split) = kids_split.split_at_mut(nl);
-        rayon::join(
-            || self.subtree(sizes, i + 1, l_cost, l_choice, l_split),
-            || self.subtree(sizes, i + 1 + nl, r_cost, r_choice, r_split),
+        let (left, right) = rayon::join(
+            || self.subtree(i + 1, r, l_refs, l_cost, l_choice, l_split),
+            || self.subtree(r, end, r_refs, r_cost, r_choice, r_split),
         );
-        own_split[0] = self.row(i, Some((&l_cost[..w], &r_cost[..w])), own_cost, own_choice);
+        if !(left && right) {
+            return false;
+        }
+        own_refs[0] = l_refs[0].saturating_add(r_refs[0]);
+        own_split[0] = self.row(
+            i,
+            own_refs[0],
+            Some((&l_cost[..w], &r_cost[..w])),
+            own_cost,
+            own_choice,
+        );
+        true
     }
 
     /// Fills the row of node `i` (`cost` and `choice` start at it) from its children's rows
@@ -307,13 +346,13 @@ impl PlanRows<'_> {
     fn row(
         &self,
         i: usize,
+        refs: u64,
         kids: Option<(&[f32], &[f32])>,
         cost: &mut [f32],
         choice: &mut [u8],
     ) -> u8 {
         let width = self.width;
         let node = &self.bvh.nodes[i];
-        let refs = self.refs[i];
         let area = (half_area(&node.bounds()) * self.scale) as f32;
         let Some((l, r)) = kids else {
             let c = area * leaf_cost(refs);
@@ -403,26 +442,9 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
         };
     }
     let n = bvh.nodes.len();
-    // References and binary nodes of every subtree, and whether every subtree is a contiguous
-    // range of the layout (then large subtrees are planned in parallel).
+    // The plan also counts every subtree's references.
     let mut refs = vec![0u64; n];
-    let mut sizes = vec![0u32; n];
-    let mut contiguous = true;
-    for i in (0..n).rev() {
-        let node = &bvh.nodes[i];
-        if node.is_leaf() {
-            refs[i] = node.count as u64;
-            sizes[i] = 1;
-        } else {
-            let (l, r) = (i + 1, node.index as usize);
-            refs[i] = refs[l].saturating_add(refs[r]);
-            sizes[i] = sizes[l].saturating_add(sizes[r]).saturating_add(1);
-            contiguous &= r == i + 1 + sizes[l] as usize;
-        }
-    }
-    contiguous &= sizes[0] as usize == n;
-    let plan = Plan::new(bvh, &refs, W, contiguous.then_some(&sizes[..]), par);
-    drop(sizes);
+    let plan = Plan::new(bvh, &mut refs, W, par);
     let layout = Layout::<W> {
         bvh,
         tris,
@@ -1011,7 +1033,7 @@ mod tests {
 
     fn check<const W: usize>(bvh: &Bvh, tris: &[Triangle]) {
         let refs = refs(bvh);
-        let plan = Plan::new(bvh, &refs, W, None, Par::DEFAULT);
+        let plan = Plan::new(bvh, &mut refs.clone(), W, Par::DEFAULT);
         let w = collapse::<W>(bvh, Source::Triangles(tris));
         // The built tree is the planned one (no leaf exceeds 32 references here).
         let (planned, built) = (plan.root_cost, wide_cost(&w));
@@ -1175,6 +1197,71 @@ mod tests {
                 assert_eq!(v, expected);
             }
         }
+    }
+
+    /// `bvh` laid out so that subtrees are not contiguous: each node is followed by its left
+    /// child (as the format requires), but right children are deferred to a queue.
+    fn deferred_right_children(bvh: &Bvh) -> Bvh {
+        let mut order = Vec::with_capacity(bvh.nodes.len());
+        let mut queue = std::collections::VecDeque::from([0usize]);
+        while let Some(mut n) = queue.pop_front() {
+            loop {
+                order.push(n);
+                let node = &bvh.nodes[n];
+                if node.is_leaf() {
+                    break;
+                }
+                queue.push_back(node.index as usize);
+                n += 1;
+            }
+        }
+        let mut new_index = vec![0u32; bvh.nodes.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_index[old] = new as u32;
+        }
+        let nodes = order
+            .iter()
+            .map(|&old| {
+                let mut node = bvh.nodes[old];
+                if !node.is_leaf() {
+                    node.index = new_index[node.index as usize];
+                }
+                node
+            })
+            .collect();
+        Bvh {
+            nodes,
+            prim_indices: bvh.prim_indices.clone(),
+            spatial_splits: bvh.spatial_splits,
+        }
+    }
+
+    #[test]
+    fn layouts_that_are_not_depth_first_collapse_to_the_same_tree() {
+        let tris = soup(3000, 8);
+        let bvh = build("binned", &tris);
+        let moved = deferred_right_children(&bvh);
+        moved.validate(&tris).unwrap();
+        // Not depth first any more: some right child does not follow its left subtree.
+        let n = moved.nodes.len();
+        let mut size = vec![1usize; n];
+        for i in (0..n).rev() {
+            let node = &moved.nodes[i];
+            if !node.is_leaf() {
+                size[i] += size[i + 1] + size[node.index as usize];
+            }
+        }
+        assert!(moved
+            .nodes
+            .iter()
+            .enumerate()
+            .any(|(i, node)| !node.is_leaf() && node.index as usize != i + 1 + size[i + 1]));
+        let w = collapse::<8>(&bvh, Source::Triangles(&tris));
+        assert_eq!(
+            bits(&w),
+            bits(&collapse::<8>(&moved, Source::Triangles(&tris)))
+        );
+        same_bits_in_parallel(&moved, &tris, &w);
     }
 
     #[test]
