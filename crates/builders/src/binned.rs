@@ -421,16 +421,7 @@ impl<'a> BinnedRule<'a> {
     fn best_plane_of_two(&self, refs: &[PrimRef], maps: &[Option<BinMap>; 3]) -> Option<Plane> {
         debug_assert_eq!(refs.len(), 2);
         let top = (self.cfg.bins - 1) as f32;
-        let lanes = |f: fn(&BinMap) -> f32| -> [f32; 4] {
-            std::array::from_fn(|a| {
-                if a < 3 {
-                    maps[a].as_ref().map_or(0.0, f)
-                } else {
-                    0.0
-                }
-            })
-        };
-        let (lo4, scale4) = (lanes(|m| m.min), lanes(|m| m.scale));
+        let (lo4, scale4) = bins::map_lanes(maps);
         let i0 = bins::bin_indices(&refs[0], lo4, scale4, top);
         let i1 = bins::bin_indices(&refs[1], lo4, scale4, top);
         let axis = (0..3).find(|&a| maps[a].is_some() && i0[a] != i1[a])?;
@@ -482,16 +473,7 @@ impl<'a> BinnedRule<'a> {
             sp.count.resize(3 * k, 0);
         }
         let top = (k - 1) as f32;
-        let lanes = |f: fn(&BinMap) -> f32| -> [f32; 4] {
-            std::array::from_fn(|a| {
-                if a < 3 {
-                    maps[a].as_ref().map_or(0.0, f)
-                } else {
-                    0.0
-                }
-            })
-        };
-        let (lo4, scale4) = (lanes(|m| m.min), lanes(|m| m.scale));
+        let (lo4, scale4) = bins::map_lanes(maps);
         let on = maps.map(|m| m.is_some());
         let mut masks = [0u64; 3];
         for r in refs {

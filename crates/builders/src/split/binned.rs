@@ -309,6 +309,21 @@ pub(crate) fn max4(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
     std::array::from_fn(|l| max_lane(a[l], b[l]))
 }
 
+/// The maps' origins and scales as four lanes (`0` for an axis without a map and for the
+/// fourth lane): the constants of [`bin_indices`].
+#[inline(always)]
+pub(crate) fn map_lanes(maps: &[Option<BinMap>; 3]) -> ([f32; 4], [f32; 4]) {
+    let mut lo = [0.0; 4];
+    let mut scale = [0.0; 4];
+    for (a, m) in maps.iter().enumerate() {
+        if let Some(m) = m {
+            lo[a] = m.min;
+            scale[a] = m.scale;
+        }
+    }
+    (lo, scale)
+}
+
 /// The bins of a reference's centroid on the three axes as [`RefBins::fill`] computes them
 /// (both backends): `min(max((c - lo) * scale, 0), top)` truncated lane by lane, with
 /// `c = (min + max) * 0.5` (an axis with `scale` 0 gets bin 0).
@@ -475,20 +490,7 @@ impl RefBins {
         backend: FillBackend,
     ) {
         self.reset(k);
-        let lo: [f32; 4] = std::array::from_fn(|a| {
-            if a < 3 {
-                maps[a].map_or(0.0, |m| m.min)
-            } else {
-                0.0
-            }
-        });
-        let scale: [f32; 4] = std::array::from_fn(|a| {
-            if a < 3 {
-                maps[a].map_or(0.0, |m| m.scale)
-            } else {
-                0.0
-            }
-        });
+        let (lo, scale) = map_lanes(maps);
         let on = maps.map(|m| m.is_some());
         match backend {
             #[cfg(target_arch = "x86_64")]
