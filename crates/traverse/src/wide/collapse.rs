@@ -186,11 +186,16 @@ impl Plan {
             scale,
             par_nodes: par.plan_nodes,
         };
-        let done =
-            n > par.plan_nodes && rows.subtree(0, n, refs, &mut cost, &mut choice, &mut split);
+        let mut slices = RowSlices {
+            refs,
+            cost: &mut cost,
+            choice: &mut choice,
+            split: &mut split,
+        };
+        let done = n > par.plan_nodes && rows.subtree(0, n, slices.reborrow());
         if !done {
             // One range in node order: right for any layout (children follow their parent).
-            let all = rows.range(0, n, refs, &mut cost, &mut choice, &mut split);
+            let all = rows.range(0, n, slices.reborrow());
             assert!(all, "a child precedes its parent or lies outside the tree");
         }
         Self {
@@ -250,19 +255,59 @@ struct PlanRows<'a> {
     par_nodes: usize,
 }
 
+/// The plan's arrays for a range of binary nodes (each starting at the range's first node):
+/// reference counts, costs and choices (`width` per node), and splits.
+struct RowSlices<'s> {
+    refs: &'s mut [u64],
+    cost: &'s mut [f32],
+    choice: &'s mut [u8],
+    split: &'s mut [u8],
+}
+
+impl<'s> RowSlices<'s> {
+    fn reborrow(&mut self) -> RowSlices<'_> {
+        RowSlices {
+            refs: self.refs,
+            cost: self.cost,
+            choice: self.choice,
+            split: self.split,
+        }
+    }
+
+    /// The first `nodes` nodes' slices, and the rest (`w` costs and choices per node).
+    fn split_at(self, nodes: usize, w: usize) -> (RowSlices<'s>, RowSlices<'s>) {
+        let (refs, r_refs) = self.refs.split_at_mut(nodes);
+        let (cost, r_cost) = self.cost.split_at_mut(nodes * w);
+        let (choice, r_choice) = self.choice.split_at_mut(nodes * w);
+        let (split, r_split) = self.split.split_at_mut(nodes);
+        (
+            RowSlices {
+                refs,
+                cost,
+                choice,
+                split,
+            },
+            RowSlices {
+                refs: r_refs,
+                cost: r_cost,
+                choice: r_choice,
+                split: r_split,
+            },
+        )
+    }
+}
+
 impl PlanRows<'_> {
     /// Rows and reference counts of the nodes `a..b` (slices starting at node `a`), last node
     /// first. `false` when a node's child lies outside the range: then the range is not a
     /// closed part of the tree (the layout is not depth first) and its rows are incomplete.
-    fn range(
-        &self,
-        a: usize,
-        b: usize,
-        refs: &mut [u64],
-        cost: &mut [f32],
-        choice: &mut [u8],
-        split: &mut [u8],
-    ) -> bool {
+    fn range(&self, a: usize, b: usize, s: RowSlices<'_>) -> bool {
+        let RowSlices {
+            refs,
+            cost,
+            choice,
+            split,
+        } = s;
         let w = self.width;
         for i in (a..b).rev() {
             let node = &self.bvh.nodes[i];
@@ -296,47 +341,33 @@ impl PlanRows<'_> {
     /// node `i`): in a depth-first layout its left child's subtree is `i + 1..r` and its right
     /// child's `r..end`, planned in parallel when the subtree is large. `false` when the layout
     /// is not depth first (a child outside its range); the rows are then incomplete.
-    fn subtree(
-        &self,
-        i: usize,
-        end: usize,
-        refs: &mut [u64],
-        cost: &mut [f32],
-        choice: &mut [u8],
-        split: &mut [u8],
-    ) -> bool {
+    fn subtree(&self, i: usize, end: usize, s: RowSlices<'_>) -> bool {
         let node = &self.bvh.nodes[i];
         if end - i <= self.par_nodes || node.is_leaf() {
-            return self.range(i, end, refs, cost, choice, split);
+            return self.range(i, end, s);
         }
         let r = node.index as usize;
         if r <= i + 1 || r >= end {
             return false;
         }
         let w = self.width;
-        let nl = r - i - 1;
-        let (own_refs, kids_refs) = refs.split_at_mut(1);
-        let (l_refs, r_refs) = kids_refs.split_at_mut(nl);
-        let (own_cost, kids_cost) = cost.split_at_mut(w);
-        let (l_cost, r_cost) = kids_cost.split_at_mut(nl * w);
-        let (own_choice, kids_choice) = choice.split_at_mut(w);
-        let (l_choice, r_choice) = kids_choice.split_at_mut(nl * w);
-        let (own_split, kids_split) = split.split_at_mut(1);
-        let (l_split, r_split) = kids_split.split_at_mut(nl);
-        let (left, right) = rayon::join(
-            || self.subtree(i + 1, r, l_refs, l_cost, l_choice, l_split),
-            || self.subtree(r, end, r_refs, r_cost, r_choice, r_split),
+        // Layout: row `i`, then the left subtree `i + 1..r`, then the right one `r..end`.
+        let (own, kids) = s.split_at(1, w);
+        let (mut left, mut right) = kids.split_at(r - i - 1, w);
+        let (left_ok, right_ok) = rayon::join(
+            || self.subtree(i + 1, r, left.reborrow()),
+            || self.subtree(r, end, right.reborrow()),
         );
-        if !(left && right) {
+        if !(left_ok && right_ok) {
             return false;
         }
-        own_refs[0] = l_refs[0].saturating_add(r_refs[0]);
-        own_split[0] = self.row(
+        own.refs[0] = left.refs[0].saturating_add(right.refs[0]);
+        own.split[0] = self.row(
             i,
-            own_refs[0],
-            Some((&l_cost[..w], &r_cost[..w])),
-            own_cost,
-            own_choice,
+            own.refs[0],
+            Some((&left.cost[..w], &right.cost[..w])),
+            own.cost,
+            own.choice,
         );
         true
     }
