@@ -135,6 +135,7 @@ impl Strategy for SweepConfig {
             max_leaf: self.max_leaf_size.max(1),
             marks: &marks,
             parallel_threshold: self.parallel_threshold,
+            memo: None,
         };
         let mut storage = JobStorage::new(input.len(), input.centroids());
         Ok(topdown::build(&rule, storage.root(), false))
@@ -253,6 +254,9 @@ pub struct Greedy<'a> {
     pub marks: &'a Marks,
     /// See [`SweepConfig::parallel_threshold`].
     pub parallel_threshold: usize,
+    /// Cost-only builds: subtree costs shared with other cost-only builds over the same
+    /// primitives (see [`topdown::SubtreeMemo`]).
+    pub memo: Option<topdown::MemoView<'a>>,
 }
 
 impl<'a> Greedy<'a> {
@@ -303,6 +307,14 @@ impl<'a> TopDown for Greedy<'a> {
 
     fn parallel_threshold(&self) -> usize {
         self.parallel_threshold
+    }
+
+    #[inline]
+    fn memo(&self, job: &Job<'a>) -> Option<(topdown::MemoView<'_>, topdown::MemoKey)> {
+        // A sweep subtree is a function of its set: any subset's orders are the global sorted
+        // orders restricted to it.
+        let m = self.memo?;
+        (job.len() >= m.own.min_size()).then(|| (m, m.own.key(job.orders[0])))
     }
 }
 
@@ -361,6 +373,22 @@ pub fn sweep_cost_with_top_levels(
     max_leaf_size: usize,
     scratch: &mut SweepScratch,
 ) -> (SubtreeCost, topdown::TopLevels) {
+    sweep_cost_memo(bounds, orders, marks, cost, max_leaf_size, scratch, None)
+}
+
+/// [`sweep_cost_with_top_levels`] with the subtree costs of other cost-only sweep builds over
+/// the same `bounds`, `cost` and `max_leaf_size` ([`topdown::SubtreeMemo`]): subtrees over a
+/// set of primitives found in `memo` are not built again, and the subtrees this build costs are
+/// added to it. The same values as without the memo (but for a key collision, about 2^-128).
+pub fn sweep_cost_memo(
+    bounds: &[Aabb],
+    orders: [&mut [u32]; 3],
+    marks: &Marks,
+    cost: &CostModel,
+    max_leaf_size: usize,
+    scratch: &mut SweepScratch,
+    memo: Option<topdown::MemoView<'_>>,
+) -> (SubtreeCost, topdown::TopLevels) {
     let n = orders[0].len();
     assert!(orders[1].len() == n && orders[2].len() == n);
     if n == 0 {
@@ -376,6 +404,7 @@ pub fn sweep_cost_with_top_levels(
         max_leaf: max_leaf_size.max(1),
         marks,
         parallel_threshold: usize::MAX,
+        memo,
     };
     let job = Job {
         orders,
@@ -383,4 +412,82 @@ pub fn sweep_cost_with_top_levels(
         areas: &mut scratch.areas[..n],
     };
     topdown::cost_with_top_levels(&rule, job, cost, &mut ())
+}
+
+#[cfg(test)]
+mod memo_tests {
+    use super::*;
+    use crate::topdown::{MemoView, SubtreeMemo, TopLevels};
+    use sahara_geom::rng::Pcg32;
+    use sahara_geom::Vec3A;
+
+    /// The cost-only sweep build over the primitives `set` of `all` (labelled `0..` in the
+    /// order of `set`, as the paper's builders relabel a node), with `memo` or without.
+    fn cost_of(all: &[Aabb], set: &[u32], memo: Option<MemoView>) -> (SubtreeCost, TopLevels) {
+        let bounds: Vec<Aabb> = set.iter().map(|&g| all[g as usize]).collect();
+        let cents: Vec<Vec3A> = bounds.iter().map(Aabb::centroid).collect();
+        let ids: Vec<u32> = (0..set.len() as u32).collect();
+        let [mut x, mut y, mut z] = sorted_orders(&cents, &ids);
+        sweep_cost_memo(
+            &bounds,
+            [&mut x, &mut y, &mut z],
+            &Marks::new(set.len()),
+            &CostModel::default(),
+            8,
+            &mut SweepScratch::new(),
+            memo,
+        )
+    }
+
+    fn bits(c: &(SubtreeCost, TopLevels)) -> String {
+        format!("{:?} {:?}", (c.0.cost.to_bits(), c.0.area.to_bits()), c.1)
+    }
+
+    /// Neighbouring sets (two prefixes of the x order that differ by one primitive) and a
+    /// relabelled set: the memoised builds give the fresh builds' costs and top levels bit for
+    /// bit, the neighbour reuses the first build's subtrees, and a memo labelled otherwise
+    /// finds them by their global ids.
+    #[test]
+    fn memoised_costs_equal_fresh_costs_and_are_reused() {
+        let mut r = Pcg32::new(7, 3);
+        let all: Vec<Aabb> = (0..3000)
+            .map(|_| {
+                let o = Vec3A::new(r.next_f32(), r.next_f32(), r.next_f32()) * 100.0;
+                Aabb::new(o, o + Vec3A::new(r.next_f32(), r.next_f32(), r.next_f32()))
+            })
+            .collect();
+        let cents: Vec<Vec3A> = all.iter().map(Aabb::centroid).collect();
+        let every: Vec<u32> = (0..all.len() as u32).collect();
+        let [xs, _, zs] = sorted_orders(&cents, &every);
+        let big = &xs[..1501];
+        let small = &xs[..1500];
+        let in_z =
+            |set: &[u32]| -> Vec<u32> { zs.iter().copied().filter(|g| set.contains(g)).collect() };
+        // The build over `labels` (a set in some order) with a memo of its own that reads
+        // `other`: equal to the fresh build over `set`; returns the memo.
+        let check = |labels: &[u32], set: &[u32], other: Option<&SubtreeMemo>| {
+            let own = SubtreeMemo::new(16, labels.to_vec());
+            let view = MemoView { own: &own, other };
+            let memoised = cost_of(&all, labels, Some(view));
+            assert_eq!(bits(&memoised), bits(&cost_of(&all, set, None)));
+            own
+        };
+
+        let parent = check(big, big, None);
+        let stored = parent.len();
+        assert!(stored > 20, "{stored} subtrees stored");
+        // The neighbour, labelled as the first set and in z order: it finds the first build's
+        // subtrees by their primitives, not by its labels.
+        for labels in [small.to_vec(), in_z(small)] {
+            let own = check(&labels, small, Some(&parent));
+            assert!(
+                own.len() * 3 < stored,
+                "the neighbour stored {} subtrees of its own (the first build {stored})",
+                own.len()
+            );
+        }
+        // The first set labelled in z order: its whole tree is found at the root.
+        let own = check(&in_z(big), big, Some(&parent));
+        assert_eq!(own.len(), 0, "the relabelled build missed the memo");
+    }
 }

@@ -157,6 +157,140 @@ pub trait TopDown: Sync {
     fn parallel_threshold(&self) -> usize {
         4096
     }
+
+    /// Cost-only builds ([`cost`], [`cost_with_top_levels`]): the memo of subtree costs this
+    /// rule shares with other cost-only builds over the same primitives, and the key of a
+    /// node in it (`None`: do not look the node up). A rule may only key nodes whose subtree
+    /// is a function of the key's set of references (see [`SubtreeMemo`]). By default none.
+    fn memo(&self, _task: &Self::Task) -> Option<(MemoView<'_>, MemoKey)> {
+        None
+    }
+}
+
+/// The set of references of a node, as a key of a [`SubtreeMemo`]: the number of references
+/// and two independent 64-bit sums of a hash of each reference's primitive (order-independent,
+/// so equal sets have equal keys whatever their order; different sets collide with
+/// probability about 2^-128 per pair).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MemoKey {
+    n: usize,
+    a: u64,
+    b: u64,
+}
+
+/// Subtree costs that cost-only builds over subsets of the same primitives share: the cost of
+/// a node's subtree is a function of its set of references for rules like the sweep (the same
+/// set gives the same sorted orders, decisions and sums), so a build that meets a set another
+/// build has costed takes its value instead of building the subtree again. The paper's
+/// builders rate a node's neighbouring candidates, whose sides differ by a few primitives:
+/// their temporaries share most subtrees, and so do a node's temporaries and its children's.
+///
+/// Builds may label primitives locally: a memo maps its builds' ids to global ones
+/// ([`SubtreeMemo::new`]) and keys sets by the global ids, so that builds can also read the
+/// entries of another memo, whose builds labelled the primitives otherwise ([`MemoView`]).
+///
+/// Only nodes of at least [`SubtreeMemo::min_size`] references are stored and looked up. The
+/// values are those the build would compute, bit for bit, so the memo changes the speed,
+/// never a cost (but for a collision of [`MemoKey`]s). Thread-safe; which build stores a value
+/// first depends on the threads' timing, not the value.
+#[derive(Debug)]
+pub struct SubtreeMemo {
+    min_size: usize,
+    /// Global id of each local id.
+    global: Vec<u32>,
+    known: Mutex<std::collections::HashMap<MemoKey, Known>>,
+}
+
+/// A memo entry: the subtree's cost, its root's left size (`0` for a leaf) and, when it was
+/// costed within the top levels of a build, the subtree's own top levels.
+#[derive(Clone, Debug)]
+struct Known {
+    cost: SubtreeCost,
+    left_len: usize,
+    top: Option<Box<TopLevels>>,
+}
+
+impl SubtreeMemo {
+    /// An empty memo for nodes of at least `min_size` references (at least 2), whose builds
+    /// label primitive `global[i]` as `i`.
+    pub fn new(min_size: usize, global: Vec<u32>) -> Self {
+        Self {
+            min_size: min_size.max(2),
+            global,
+            known: Mutex::new(Default::default()),
+        }
+    }
+
+    /// The smallest node stored.
+    #[inline]
+    pub fn min_size(&self) -> usize {
+        self.min_size
+    }
+
+    /// The key of the set of local `ids` (in any order).
+    #[inline]
+    pub fn key(&self, ids: &[u32]) -> MemoKey {
+        // splitmix64's finaliser, of two different inputs per primitive.
+        #[inline(always)]
+        fn mix(mut z: u64) -> u64 {
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+        let (mut a, mut b) = (0u64, 0u64);
+        for &id in ids {
+            let x = u64::from(self.global[id as usize]).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            a = a.wrapping_add(mix(x));
+            b = b.wrapping_add(mix(x ^ 0x5851_f42d_4c95_7f2d));
+        }
+        MemoKey { n: ids.len(), a, b }
+    }
+
+    /// Number of subtrees stored.
+    pub fn len(&self) -> usize {
+        self.known.lock().expect("memo").len()
+    }
+
+    /// True when nothing is stored.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn get(&self, k: &MemoKey) -> Option<Known> {
+        self.known.lock().expect("memo").get(k).cloned()
+    }
+
+    fn put(&self, k: MemoKey, v: Known) {
+        let mut m = self.known.lock().expect("memo");
+        let e = m.entry(k).or_insert_with(|| v.clone());
+        // Top levels are worth keeping when the first entry had none.
+        if e.top.is_none() {
+            e.top = v.top;
+        }
+    }
+}
+
+/// What a cost-only build reads and writes: its own [`SubtreeMemo`] (its ids' labels, and where
+/// it stores), and another memo over the same primitives it reads as well (the parent node's,
+/// in the paper's builders).
+#[derive(Clone, Copy, Debug)]
+pub struct MemoView<'a> {
+    /// Keys, lookups and stores.
+    pub own: &'a SubtreeMemo,
+    /// Lookups only.
+    pub other: Option<&'a SubtreeMemo>,
+}
+
+impl MemoView<'_> {
+    fn get(&self, k: &MemoKey) -> Option<Known> {
+        self.own
+            .get(k)
+            .or_else(|| self.other.and_then(|o| o.get(k)))
+    }
+
+    fn put(&self, k: MemoKey, v: Known) {
+        self.own.put(k, v)
+    }
 }
 
 /// Marks a fragment node that stands for another fragment (its `index` is the fragment's slot).
@@ -422,6 +556,30 @@ impl TopLevels {
         })
     }
 
+    /// The levels recorded of the subtree of the node of heap index `index` (at `depth`), as
+    /// that subtree's own top levels (`TOP_LEVELS - depth` of them).
+    fn extract(&self, index: usize, depth: usize) -> TopLevels {
+        let mut out = TopLevels::NONE;
+        let offset = index + 1 - (1 << depth);
+        for level in 0..TOP_LEVELS - depth {
+            let width = 1 << level;
+            let first = (1 << (depth + level)) - 1 + offset * width;
+            out.nodes[width - 1..2 * width - 1].copy_from_slice(&self.nodes[first..first + width]);
+        }
+        out
+    }
+
+    /// Writes a subtree's own top levels (see [`TopLevels::extract`]) as the levels of the node
+    /// of heap index `index` (at `depth`).
+    fn implant(&mut self, sub: &TopLevels, index: usize, depth: usize) {
+        let offset = index + 1 - (1 << depth);
+        for level in 0..TOP_LEVELS - depth {
+            let width = 1 << level;
+            let first = (1 << (depth + level)) - 1 + offset * width;
+            self.nodes[first..first + width].copy_from_slice(&sub.nodes[width - 1..2 * width - 1]);
+        }
+    }
+
     /// The levels of the root's left (`side` 0) or right (`side` 1) child's subtree (one level
     /// fewer).
     pub fn child(&self, side: usize) -> TopLevels {
@@ -464,12 +622,16 @@ fn cost_top<H: TopDown>(
     if depth >= TOP_LEVELS {
         return cost_rec(hook, task, cost, scratch, depth);
     }
-    match hook.split(task, scratch) {
-        Step::Leaf { bounds, task } => {
-            let v = leaf_value(hook, &bounds, &task, cost);
-            top.nodes[index] = Some((v, 0));
-            v
+    let memo = hook.memo(&task);
+    if let Some(k) = memo.and_then(|(m, key)| m.get(&key)) {
+        match k.top {
+            Some(sub) => top.implant(&sub, index, depth),
+            None => top.nodes[index] = Some((k.cost, k.left_len)),
         }
+        return k.cost;
+    }
+    let (v, left_len) = match hook.split(task, scratch) {
+        Step::Leaf { bounds, task } => (leaf_value(hook, &bounds, &task, cost), 0),
         Step::Split {
             bounds,
             left,
@@ -478,11 +640,22 @@ fn cost_top<H: TopDown>(
             let left_len = hook.size(&left);
             let l = cost_top(hook, left, cost, scratch, depth + 1, 2 * index + 1, top);
             let r = cost_top(hook, right, cost, scratch, depth + 1, 2 * index + 2, top);
-            let v = inner_value(cost, half_area(&bounds), &l, &r);
-            top.nodes[index] = Some((v, left_len));
-            v
+            (inner_value(cost, half_area(&bounds), &l, &r), left_len)
         }
+    };
+    top.nodes[index] = Some((v, left_len));
+    if let Some((m, key)) = memo {
+        let sub = top.extract(index, depth);
+        m.put(
+            key,
+            Known {
+                cost: v,
+                left_len,
+                top: Some(Box::new(sub)),
+            },
+        );
     }
+    v
 }
 
 /// Levels of [`cost`] that recurse on the call stack.
@@ -498,18 +671,34 @@ fn cost_rec<H: TopDown>(
     if depth >= COST_RECURSION {
         return cost_iterative(hook, task, cost, scratch);
     }
-    match hook.split(task, scratch) {
-        Step::Leaf { bounds, task } => leaf_value(hook, &bounds, &task, cost),
+    let memo = hook.memo(&task);
+    if let Some(k) = memo.and_then(|(m, key)| m.get(&key)) {
+        return k.cost;
+    }
+    let (v, left_len) = match hook.split(task, scratch) {
+        Step::Leaf { bounds, task } => (leaf_value(hook, &bounds, &task, cost), 0),
         Step::Split {
             bounds,
             left,
             right,
         } => {
+            let left_len = hook.size(&left);
             let l = cost_rec(hook, left, cost, scratch, depth + 1);
             let r = cost_rec(hook, right, cost, scratch, depth + 1);
-            inner_value(cost, half_area(&bounds), &l, &r)
+            (inner_value(cost, half_area(&bounds), &l, &r), left_len)
         }
+    };
+    if let Some((m, key)) = memo {
+        m.put(
+            key,
+            Known {
+                cost: v,
+                left_len,
+                top: None,
+            },
+        );
     }
+    v
 }
 
 /// The cost of a leaf: `n c_i`.

@@ -403,7 +403,15 @@ pub(crate) fn sweep_sides(
     let marks = &*marks;
     let side = |o: &mut [Vec<u32>; 3], s: &mut SweepScratch| {
         let [a, b, c] = o;
-        sweep::sweep_cost_with_top_levels(&node.bounds, [a, b, c], marks, cost, max_leaf, s)
+        sweep::sweep_cost_memo(
+            &node.bounds,
+            [a, b, c],
+            marks,
+            cost,
+            max_leaf,
+            s,
+            Some(node.memo_view()),
+        )
     };
     if n >= JOIN_SIDES {
         rayon::join(

@@ -13,9 +13,10 @@ use sahara_geom::{Aabb, Vec3A};
 
 use crate::split::{offer, BinMap, Marks};
 use crate::sweep::{self, Greedy, Job, JobStorage, SplitCandidate};
-use crate::topdown::{self, RootSplit, Step, TopDown, TopLevels};
+use crate::topdown::{self, MemoView, RootSplit, Step, SubtreeMemo, TopDown, TopLevels};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput};
+use std::sync::Arc;
 
 /// Rates a candidate split of a node (smaller is better). Implementations are called in
 /// parallel for the candidates of a node and must be deterministic.
@@ -54,6 +55,9 @@ pub(crate) trait Rater: Sync {
 pub(crate) struct Hinted<'a> {
     job: Job<'a>,
     hint: TopLevels,
+    /// The memo of the parent's temporaries, which built subtrees over this node's
+    /// primitives (see [`LocalNode::memo`]).
+    memo: Option<Arc<SubtreeMemo>>,
 }
 
 impl<'a> From<Job<'a>> for Hinted<'a> {
@@ -61,9 +65,13 @@ impl<'a> From<Job<'a>> for Hinted<'a> {
         Self {
             job,
             hint: TopLevels::NONE,
+            memo: None,
         }
     }
 }
+
+/// A candidate's rating and the hints for its sides ([`Rater::rate_hinted`]).
+type Rating = (f64, [TopLevels; 2]);
 
 /// Nodes at least this large rate their candidates in parallel; smaller ones rate them on the
 /// current thread with the driver's scratch.
@@ -85,9 +93,30 @@ pub(crate) struct LocalNode {
     pub orders: [Vec<u32>; 3],
     /// Half area of the node's bounds.
     pub area: f64,
+    /// The subtree costs of the temporaries built so far over this node's primitives (see
+    /// [`SubtreeMemo`]): neighbouring candidates' sides differ by a few primitives, so their
+    /// temporaries share most subtrees. The children read it too: the temporaries of their
+    /// candidates share subtrees with those of this node's.
+    pub memo: Arc<SubtreeMemo>,
+    /// The parent's memo, read as well.
+    pub parent_memo: Option<Arc<SubtreeMemo>>,
 }
 
+/// The smallest temporary subtree a node's [`SubtreeMemo`] keeps: at least [`MEMO_MIN`]
+/// references and `1 / MEMO_FRACTION` of the node (the memo saves most where a reused
+/// subtree is large; small entries would cost more to key and store than they save).
+const MEMO_MIN: usize = 32;
+const MEMO_FRACTION: usize = 1024;
+
 impl LocalNode {
+    /// The memos the temporaries over this node's primitives use.
+    pub fn memo_view(&self) -> MemoView<'_> {
+        MemoView {
+            own: &self.memo,
+            other: self.parent_memo.as_deref(),
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.bounds.len()
     }
@@ -121,6 +150,7 @@ pub(crate) fn build<R: Rater>(
             max_leaf: params.max_leaf_size.max(1),
             marks: &marks,
             parallel_threshold: sweep::SweepConfig::DEFAULT.parallel_threshold,
+            memo: None,
         },
         centroids: input.centroids(),
         params: *params,
@@ -261,7 +291,7 @@ fn bin_positions(order: &[u32], centroids: &[Vec3A], axis: usize, bins: usize) -
 impl<'a, R: Rater> Rated<'a, R> {
     /// One node of the paper's builder: candidates, ratings, leaf or split.
     fn node(&self, t: Hinted<'a>, scratch: &mut R::Scratch) -> Step<Hinted<'a>> {
-        let Hinted { job, hint } = t;
+        let Hinted { job, hint, memo } = t;
         let g = &self.greedy;
         let n = job.len();
         if n == 1 {
@@ -293,11 +323,11 @@ impl<'a, R: Rater> Rated<'a, R> {
         }
 
         let must_split = n > g.max_leaf;
-        let (best, hints) = if must_split && cands.len() == 1 {
+        let (best, hints, memo) = if must_split && cands.len() == 1 {
             // Nothing to compare: skip the ratings.
-            (cands[0], [TopLevels::NONE; 2])
+            (cands[0], [TopLevels::NONE; 2], memo)
         } else {
-            let local = self.local_node(orders, &node_bounds);
+            let local = self.local_node(orders, &node_bounds, memo);
             // The greedy candidate's rating from an ancestor's temporary over this node (see
             // `Hinted`). Its root split is this node's greedy split only where Eq. 2 is
             // finite: the sweep's pruning of positions (`best_split`) equals the full
@@ -325,11 +355,25 @@ impl<'a, R: Rater> Rated<'a, R> {
                 }
                 _ => self.rater.rate_hinted(&local, c, sc),
             };
-            let rated: Vec<(f64, [TopLevels; 2])> = if n >= PAR_RATE {
-                cands
+            let rated: Vec<Rating> = if n >= PAR_RATE {
+                // The axes in parallel, the candidates of an axis one after the other: they
+                // are neighbours, so the later ones find most of their subtrees in the
+                // node's memo.
+                let mut by_axis: [Vec<usize>; 3] = Default::default();
+                for (i, c) in cands.iter().enumerate() {
+                    by_axis[c.axis].push(i);
+                }
+                let per_axis: Vec<Vec<(usize, Rating)>> = by_axis
                     .par_iter()
-                    .map_init(R::Scratch::default, |sc, c| rate(c, sc))
-                    .collect()
+                    .map_init(R::Scratch::default, |sc, ids| {
+                        ids.iter().map(|&i| (i, rate(&cands[i], sc))).collect()
+                    })
+                    .collect();
+                let mut rated = vec![(0.0, [TopLevels::NONE; 2]); cands.len()];
+                for (i, r) in per_axis.into_iter().flatten() {
+                    rated[i] = r;
+                }
+                rated
             } else {
                 cands.iter().map(|c| rate(c, scratch)).collect()
             };
@@ -354,7 +398,7 @@ impl<'a, R: Rater> Rated<'a, R> {
                     task: job.into(),
                 };
             }
-            (cands[best], rated[best].1)
+            (cands[best], rated[best].1, Some(local.memo))
         };
         let (left, right) = job.split(best.axis, best.pos, g.marks);
         Step::Split {
@@ -362,15 +406,22 @@ impl<'a, R: Rater> Rated<'a, R> {
             left: Hinted {
                 job: left,
                 hint: hints[0],
+                memo: memo.clone(),
             },
             right: Hinted {
                 job: right,
                 hint: hints[1],
+                memo,
             },
         }
     }
 
-    fn local_node(&self, orders: [&[u32]; 3], node_bounds: &Aabb) -> LocalNode {
+    fn local_node(
+        &self,
+        orders: [&[u32]; 3],
+        node_bounds: &Aabb,
+        parent_memo: Option<Arc<SubtreeMemo>>,
+    ) -> LocalNode {
         let n = orders[0].len();
         for (j, &g) in orders[0].iter().enumerate() {
             self.local_of[g as usize].store(j as u32, Ordering::Relaxed);
@@ -391,6 +442,11 @@ impl<'a, R: Rater> Rated<'a, R> {
                 relabel(orders[2]),
             ],
             area: node_bounds.half_area() as f64,
+            memo: Arc::new(SubtreeMemo::new(
+                MEMO_MIN.max(n / MEMO_FRACTION),
+                orders[0].to_vec(),
+            )),
+            parent_memo,
         }
     }
 }
