@@ -48,6 +48,7 @@ use sahara_metrics::CostModel;
 
 use crate::registry::Entry;
 use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
+use crate::topdown::MemoView;
 use crate::tsah::engine::{self, offer_top_k, EngineParams, LocalNode, Rater};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput, Configured, Strategy};
@@ -221,8 +222,9 @@ impl Rater for LookAhead {
         }
         let marks = Marks::new(node.len());
         let (mut l, mut r) = split(node.orders(), c, &marks);
-        let cl = self.look_ahead(&node.bounds, &mut l, self.depth - 1, &marks);
-        let cr = self.look_ahead(&node.bounds, &mut r, self.depth - 1, &marks);
+        let memo = node.memo_view();
+        let cl = self.look_ahead(&node.bounds, &mut l, self.depth - 1, &marks, memo);
+        let cr = self.look_ahead(&node.bounds, &mut r, self.depth - 1, &marks, memo);
         self.cost
             .inner_cost(node.area, c.left_area, cl, c.right_area, cr)
     }
@@ -230,13 +232,15 @@ impl Rater for LookAhead {
 
 impl LookAhead {
     /// `LA(S, depth)` of the set whose sorted orders are given (permuted by the hybrid's
-    /// temporaries).
+    /// temporaries, which share their subtrees through `memo`: the frontiers of neighbouring
+    /// candidates, and of a node and its children, overlap).
     fn look_ahead(
         &self,
         bounds: &[Aabb],
         orders: &mut [Vec<u32>; 3],
         depth: usize,
         marks: &Marks,
+        memo: MemoView,
     ) -> f64 {
         let n = orders[0].len();
         if n == 1 {
@@ -247,14 +251,16 @@ impl LookAhead {
                 Frontier::Leaf => self.cost.leaf_cost(n),
                 Frontier::Temporary => {
                     let [a, b, c] = orders;
-                    sweep::sweep_cost(
+                    sweep::sweep_cost_memo(
                         bounds,
                         [a, b, c],
                         marks,
                         &self.cost,
                         self.max_leaf,
                         &mut SweepScratch::new(),
+                        Some(memo),
                     )
+                    .0
                     .cost
                 }
             };
@@ -281,8 +287,8 @@ impl LookAhead {
                 c.cost
             } else {
                 let (mut l, mut r) = split([&orders[0], &orders[1], &orders[2]], c, marks);
-                let cl = self.look_ahead(bounds, &mut l, depth - 1, marks);
-                let cr = self.look_ahead(bounds, &mut r, depth - 1, marks);
+                let cl = self.look_ahead(bounds, &mut l, depth - 1, marks, memo);
+                let cr = self.look_ahead(bounds, &mut r, depth - 1, marks, memo);
                 self.cost
                     .inner_cost(area, c.left_area, cl, c.right_area, cr)
             };
