@@ -401,17 +401,21 @@ impl<'a, R: Rater> Rated<'a, R> {
             (cands[best], rated[best].1, Some(local.memo))
         };
         let (left, right) = job.split(best.axis, best.pos, g.marks);
+        // Only children that will rate candidates keep the memo alive: a small sibling waiting
+        // on the stack (a chain of them on adversarial input) would hold it for nothing.
+        let rated = |j: &Job| j.len() > self.params.greedy_below.max(1);
+        let memo_of = |j: &Job| memo.clone().filter(|_| rated(j));
         Step::Split {
             bounds: node_bounds,
             left: Hinted {
-                job: left,
                 hint: hints[0],
-                memo: memo.clone(),
+                memo: memo_of(&left),
+                job: left,
             },
             right: Hinted {
-                job: right,
                 hint: hints[1],
-                memo,
+                memo: memo_of(&right),
+                job: right,
             },
         }
     }
