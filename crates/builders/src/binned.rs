@@ -45,6 +45,7 @@ use crate::split::{
 };
 use crate::topdown::{self, Step, TopDown};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
+use glam::BVec3A;
 use rayon::prelude::*;
 use sahara_geom::{Aabb, Vec3A};
 use sahara_metrics::CostModel;
@@ -254,6 +255,8 @@ struct Scratch {
     bins: RefBins,
     right: Vec<(f32, u32)>,
     sparse: SparseBins,
+    /// The misplaced positions of [`partition_branchless`].
+    wrong: Vec<u32>,
 }
 
 /// The bins of [`BinnedRule::best_plane_sparse`]: `3 × k`, axis-major, never reset (a bit
@@ -578,7 +581,12 @@ impl<'a> BinnedRule<'a> {
     /// Moves the references of bins `< plane` to the front (the same swaps whatever the
     /// backend and the number of threads); returns how many there are and the centroid
     /// bounds of both sides.
-    fn partition(&self, refs: &mut [PrimRef], p: &Plane) -> (usize, Aabb, Aabb) {
+    fn partition(
+        &self,
+        refs: &mut [PrimRef],
+        p: &Plane,
+        wrong: &mut Vec<u32>,
+    ) -> (usize, Aabb, Aabb) {
         // The parallel partition does more work (it records the misplaced positions): worth
         // it only at the few top nodes, where the other workers have nothing else to do yet.
         // Both give the same result, so the choice may depend on the thread count.
@@ -587,7 +595,7 @@ impl<'a> BinnedRule<'a> {
                 return r;
             }
         }
-        partition_serial(refs, p)
+        partition_branchless(refs, p, wrong).unwrap_or_else(|| partition_serial(refs, p))
     }
 
     /// Object median split on the largest axis of the centroid bounds, by (centroid, index).
@@ -647,6 +655,67 @@ fn partition_serial(refs: &mut [PrimRef], p: &Plane) -> (usize, Aabb, Aabb) {
         i += 1;
         j -= 1;
     }
+}
+
+/// [`partition_serial`] without a branch per reference, with the same result (the same swaps,
+/// so the same order): the references of the front `0..mid` that go right and those of the
+/// back `mid..` that go left (counted from the end) are listed first, then swapped pair by
+/// pair, the `k`-th of one list with the `k`-th of the other, as the two-pointer scheme pairs
+/// them. Which side a reference goes to is a coin flip at most nodes, which costs the
+/// two-pointer scheme a mispredicted branch every second reference. The centroid bounds are
+/// unions (exact in any order but for the sign of a zero, which no bin or plane depends on).
+/// `wrong` is scratch (grown to `refs.len()` once, never shrunk). `None` when the plane's count
+/// of the left side is not the partition's (never, by construction; then the two-pointer
+/// scheme runs).
+fn partition_branchless(
+    refs: &mut [PrimRef],
+    p: &Plane,
+    wrong: &mut Vec<u32>,
+) -> Option<(usize, Aabb, Aabb)> {
+    let n = refs.len();
+    let mid = p.n_left;
+    if mid == 0 || mid >= n {
+        return None;
+    }
+    if wrong.len() < n {
+        wrong.resize(n, 0);
+    }
+    // The front's misplaced positions go to `wrong[..mid]`, the back's to `wrong[mid..]`:
+    // each list has room for its whole half.
+    let (wf, wb) = wrong[..n].split_at_mut(mid);
+    let (mut lmin, mut lmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let (mut rmin, mut rmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let mut classify = |r: &PrimRef| {
+        let c = r.centroid();
+        let left = goes_left(p, c);
+        let m = BVec3A::splat(left);
+        lmin = lmin.min(Vec3A::select(m, c, Vec3A::INFINITY));
+        lmax = lmax.max(Vec3A::select(m, c, Vec3A::NEG_INFINITY));
+        rmin = rmin.min(Vec3A::select(m, Vec3A::INFINITY, c));
+        rmax = rmax.max(Vec3A::select(m, Vec3A::NEG_INFINITY, c));
+        left
+    };
+    let mut nf = 0usize;
+    for (i, r) in refs[..mid].iter().enumerate() {
+        // Written every time, kept (the count moves on) only when the reference goes right.
+        wf[nf] = i as u32;
+        nf += usize::from(!classify(r));
+    }
+    let mut nb = 0usize;
+    for (j, r) in refs[mid..].iter().enumerate().rev() {
+        // `nb <= n - mid - 1 - j` here, so the slot is in bounds.
+        wb[nb] = (mid + j) as u32;
+        nb += usize::from(classify(r));
+    }
+    if nf != nb {
+        return None;
+    }
+    for (&i, &j) in wf[..nf].iter().zip(&wb[..nb]) {
+        refs.swap(i as usize, j as usize);
+    }
+    let lc = Aabb::new(lmin, lmax);
+    let rc = Aabb::new(rmin, rmax);
+    Some((mid, lc, rc))
 }
 
 /// [`partition_serial`] in parallel, with the same result: the misplaced references of the
@@ -783,7 +852,7 @@ impl<'a> TopDown for BinnedRule<'a> {
         let refs = t.refs;
         let (mid, lb, rb) = match plane {
             Some(p) => {
-                let (mid, lc, rc) = self.partition(refs, &p);
+                let (mid, lc, rc) = self.partition(refs, &p, &mut scratch.wrong);
                 debug_assert_eq!(mid, p.n_left);
                 (
                     mid,
@@ -870,6 +939,67 @@ mod tests {
             assert_eq!(sa, sb, "axis {axis} plane {plane}");
             assert!(a.iter().zip(&b).all(|(x, y)| x.id() == y.id()));
         }
+    }
+
+    /// The branch-free partition makes the two-pointer scheme's swaps (the same order of the
+    /// references) and the same centroid bounds, at every size and plane, with centroids on
+    /// bin boundaries, signed zeros and references of one side only.
+    #[test]
+    fn branchless_partition_equals_the_serial_one() {
+        let mut rng = Pcg32::new(17, 3);
+        let mut wrong = Vec::new();
+        let mut checked = 0;
+        for case in 0..600 {
+            let n = 2 + rng.below(if case % 10 == 0 { 3000 } else { 70 }) as usize;
+            let coord = |rng: &mut Pcg32| match rng.below(6) {
+                0 => -0.0,
+                1 => 0.0,
+                _ => rng.below(9) as f32 * 0.5 - 2.0,
+            };
+            let refs: Vec<PrimRef> = (0..n)
+                .map(|i| {
+                    let o = Vec3A::new(coord(&mut rng), coord(&mut rng), coord(&mut rng));
+                    let e = Vec3A::splat(0.25 * rng.below(3) as f32);
+                    PrimRef::new(&Aabb::new(o, o + e), i as u32)
+                })
+                .collect();
+            let cb = bounds_of(&refs).centroids;
+            let axis = rng.below(3) as usize;
+            let k = [2, 8, 32][case % 3];
+            let Some(map) = BinMap::new(cb.min[axis], cb.max[axis], k) else {
+                continue;
+            };
+            let plane = 1 + rng.below(k as u32 - 1) as usize;
+            let mut p = Plane {
+                axis,
+                plane,
+                map,
+                n_left: 0,
+                left: Aabb::EMPTY,
+                right: Aabb::EMPTY,
+            };
+            p.n_left = refs.iter().filter(|r| goes_left(&p, r.centroid())).count();
+            let mut a = refs.clone();
+            let mut b = refs.clone();
+            let sa = partition_serial(&mut a, &p);
+            match partition_branchless(&mut b, &p, &mut wrong) {
+                Some(sb) => {
+                    assert_eq!(sa, sb, "case {case}");
+                    checked += 1;
+                }
+                // Only a plane with an empty side is refused; the serial scheme keeps the
+                // order then.
+                None => {
+                    assert!(p.n_left == 0 || p.n_left == n, "case {case}");
+                    b = a.clone();
+                }
+            }
+            assert!(
+                a.iter().zip(&b).all(|(x, y)| x.id() == y.id()),
+                "case {case}: other order"
+            );
+        }
+        assert!(checked > 400, "only {checked} partitions compared");
     }
 
     #[test]
