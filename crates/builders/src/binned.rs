@@ -253,19 +253,35 @@ struct BinTask<'a> {
 #[derive(Default)]
 struct Scratch {
     bins: RefBins,
-    right: Vec<(f32, u32)>,
+    right: Vec<([f32; 4], [u32; 4])>,
     sparse: SparseBins,
     /// The misplaced positions of [`partition_branchless`].
     wrong: Vec<u32>,
 }
 
-/// The bins of [`BinnedRule::best_plane_sparse`]: `3 × k`, axis-major, never reset (a bit
-/// mask per axis says which bins the current node filled).
+/// The bins of [`BinnedRule::best_plane_sparse`]: `3 × k`, axis-major, all empty between two
+/// searches (a search empties the bins it filled, which a bit mask per axis records).
 #[derive(Default)]
 struct SparseBins {
     min: Vec<[f32; 4]>,
     max: Vec<[f32; 4]>,
     count: Vec<u32>,
+}
+
+impl SparseBins {
+    /// Empties the bins of `masks` (`k` bins per axis).
+    fn empty(&mut self, masks: &[u64; 3], k: usize) {
+        for (axis, &mask) in masks.iter().enumerate() {
+            let mut bits = mask;
+            while bits != 0 {
+                let i = axis * k + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                self.min[i] = bins::EMPTY_MIN;
+                self.max[i] = bins::EMPTY_MAX;
+                self.count[i] = 0;
+            }
+        }
+    }
 }
 
 /// The bounds of a set of primitives and of their centroids.
@@ -379,26 +395,22 @@ impl<'a> BinnedRule<'a> {
         s: &mut Scratch,
     ) -> Option<Plane> {
         let k = self.cfg.bins;
-        s.right.resize(k, (0.0, 0));
         s.bins.fill_par(k, maps, refs, self.backend);
         let mut best: Option<Rated> = None;
-        for (axis, map) in maps.iter().enumerate() {
-            if map.is_none() {
-                continue;
-            }
-            s.bins
-                .sweep_axis(axis, &mut s.right, |plane, la, lc, ra, rc| {
-                    let cand = Rated {
-                        axis,
-                        plane,
-                        score: la * lc as f64 + ra as f64 * rc as f64,
-                        imbalance: imbalance(lc, rc),
-                    };
-                    if best.as_ref().is_none_or(|b| cand.better_than(b)) {
-                        best = Some(cand);
-                    }
-                });
-        }
+        // An axis without a map has empty bins, so it offers no plane. The planes come plane
+        // by plane rather than axis by axis; the best of a strict total order is the same.
+        s.bins
+            .sweep_axes(&mut s.right, |axis, plane, la, lc, ra, rc| {
+                let cand = Rated {
+                    axis,
+                    plane,
+                    score: la * lc as f64 + ra as f64 * rc as f64,
+                    imbalance: imbalance(lc, rc),
+                };
+                if best.as_ref().is_none_or(|b| cand.better_than(b)) {
+                    best = Some(cand);
+                }
+            });
         let Rated { axis, plane, .. } = best?;
         let (n_left, left, right) = s.bins.sides(axis, plane);
         Some(Plane {
@@ -489,16 +501,13 @@ impl<'a> BinnedRule<'a> {
                 }
                 let b = idx[axis] as usize;
                 let i = axis * k + b;
-                if masks[axis] & (1 << b) == 0 {
-                    masks[axis] |= 1 << b;
-                    sp.min[i] = lo;
-                    sp.max[i] = r.max;
-                    sp.count[i] = 1;
-                } else {
-                    sp.min[i] = bins::min4(sp.min[i], lo);
-                    sp.max[i] = bins::max4(sp.max[i], r.max);
-                    sp.count[i] += 1;
-                }
+                // No branch on whether the bin was empty: an empty bin is the neutral element
+                // (`min(+inf, x)` is `x` bit for bit, as `minps` returns its second operand
+                // unless the first is smaller), and bins are emptied again after the search.
+                masks[axis] |= 1 << b;
+                sp.min[i] = bins::min4(sp.min[i], lo);
+                sp.max[i] = bins::max4(sp.max[i], r.max);
+                sp.count[i] += 1;
             }
         }
         let mut best: Option<Rated> = None;
@@ -542,7 +551,10 @@ impl<'a> BinnedRule<'a> {
                 }
             }
         }
-        let Rated { axis, plane, .. } = best?;
+        let Some(Rated { axis, plane, .. }) = best else {
+            sp.empty(&masks, k);
+            return None;
+        };
         let (mut l, mut r) = (
             (bins::EMPTY_MIN, bins::EMPTY_MAX),
             (bins::EMPTY_MIN, bins::EMPTY_MAX),
@@ -562,6 +574,7 @@ impl<'a> BinnedRule<'a> {
             side.0 = bins::min4(side.0, sp.min[i]);
             side.1 = bins::max4(side.1, sp.max[i]);
         }
+        sp.empty(&masks, k);
         let aabb = |(lo, hi): ([f32; 4], [f32; 4])| {
             Aabb::new(
                 Vec3A::new(lo[0], lo[1], lo[2]),
