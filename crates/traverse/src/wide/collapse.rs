@@ -240,9 +240,13 @@ struct Par {
 }
 
 impl Par {
+    /// 4096 for both: at 16 384 the collapse of scenes of a few ten thousand triangles (the
+    /// teapot: 16k) ran on one thread even when two were there; 4096 cut the teapot's two-thread
+    /// collapse by a quarter and was no slower at one thread or on larger scenes
+    /// (docs/results/2026-12-04-zen5).
     const DEFAULT: Par = Par {
-        plan_nodes: 1 << 14,
-        refs: 1 << 14,
+        plan_nodes: 1 << 12,
+        refs: 1 << 12,
     };
 }
 
