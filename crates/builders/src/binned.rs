@@ -936,15 +936,7 @@ mod tests {
         let cb = bounds_of(&refs).centroids;
         for (axis, plane) in [(0, 1), (0, 5), (0, 16), (0, 31), (1, 3), (1, 30)] {
             let map = BinMap::new(cb.min[axis], cb.max[axis], 32).unwrap();
-            let mut p = Plane {
-                axis,
-                plane,
-                map,
-                n_left: 0,
-                left: Aabb::EMPTY,
-                right: Aabb::EMPTY,
-            };
-            p.n_left = refs.iter().filter(|r| goes_left(&p, r.centroid())).count();
+            let p = plane_of(&refs, axis, plane, map);
             let mut a = refs.clone();
             let mut b = refs.clone();
             let sa = partition_serial(&mut a, &p);
@@ -952,6 +944,21 @@ mod tests {
             assert_eq!(sa, sb, "axis {axis} plane {plane}");
             assert!(a.iter().zip(&b).all(|(x, y)| x.id() == y.id()));
         }
+    }
+
+    /// The plane `plane` of `axis` under `map`, with its count of `refs` going left (the
+    /// partitions' inputs; the sides' bounds are not used).
+    fn plane_of(refs: &[PrimRef], axis: usize, plane: usize, map: BinMap) -> Plane {
+        let mut p = Plane {
+            axis,
+            plane,
+            map,
+            n_left: 0,
+            left: Aabb::EMPTY,
+            right: Aabb::EMPTY,
+        };
+        p.n_left = refs.iter().filter(|r| goes_left(&p, r.centroid())).count();
+        p
     }
 
     /// The branch-free partition makes the two-pointer scheme's swaps (the same order of the
@@ -983,15 +990,7 @@ mod tests {
                 continue;
             };
             let plane = 1 + rng.below(k as u32 - 1) as usize;
-            let mut p = Plane {
-                axis,
-                plane,
-                map,
-                n_left: 0,
-                left: Aabb::EMPTY,
-                right: Aabb::EMPTY,
-            };
-            p.n_left = refs.iter().filter(|r| goes_left(&p, r.centroid())).count();
+            let p = plane_of(&refs, axis, plane, map);
             let mut a = refs.clone();
             let mut b = refs.clone();
             let sa = partition_serial(&mut a, &p);
