@@ -333,6 +333,14 @@ fn packet_test_is_bit_exact() {
         Vec3A::new(0.0, 1e-20, 0.0),
         Vec3A::new(0.0, 0.0, 1e-20),
     ));
+    // Edge functions whose two products both overflow (`∞ - ∞`: NaN) next to finite ones of
+    // one sign: the SIMD sign test's `minps`/`maxps` hide the NaN, and the lane must still
+    // miss because its determinant, and so its distance, is NaN.
+    tris.push(Triangle::new(
+        Vec3A::new(1.0, 1.0, 1.0),
+        Vec3A::new(1e20, 5e19, 1.0),
+        Vec3A::new(5e19, 1e20, 1.0),
+    ));
     for tri in &tris {
         let one = [*tri];
         let bvh = median_bvh(&one, 1);

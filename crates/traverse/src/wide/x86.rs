@@ -160,9 +160,10 @@ struct Edges {
     u: __m128,
     v: __m128,
     w: __m128,
-    det: __m128,
-    /// `det` is not zero or NaN, and the edge functions do not have mixed signs.
-    ok: __m128,
+    /// The edge functions are all positive or all negative, with the proviso that `minps`
+    /// and `maxps` may hide a NaN among them: see [`Edges::det`] for why those lanes still
+    /// never hit.
+    strict: __m128,
     /// An edge function is exactly zero: the lane needs the exact scalar test.
     is_zero: __m128,
     /// The vertices' coordinates along the ray's dominant axis, relative to the origin (not
@@ -204,26 +205,41 @@ unsafe fn tri4(p: &TriPacket, r: &SseRay) -> Edges {
             _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
             _mm_cmpeq_ps(w, zero),
         );
-        // Mixed signs: some edge function < 0 and some > 0. `minps`/`maxps` may hide a NaN,
-        // but a NaN edge function makes `det` NaN, which fails below anyway.
-        let mixed = _mm_and_ps(
-            _mm_cmplt_ps(_mm_min_ps(u, _mm_min_ps(v, w)), zero),
-            _mm_cmpgt_ps(_mm_max_ps(u, _mm_max_ps(v, w)), zero),
-        );
-        let det = _mm_add_ps(_mm_add_ps(u, v), w);
-        let ok = _mm_andnot_ps(
-            mixed,
-            _mm_and_ps(_mm_cmpneq_ps(det, zero), _mm_cmpord_ps(det, det)),
+        // All of one strict sign. A zero edge function fails both comparisons whatever a NaN
+        // beside it hides (`minps`/`maxps` return their second operand when either is NaN, so
+        // the minimum is a zero, a negative value or NaN, and the maximum a zero, a positive
+        // value or NaN).
+        let strict = _mm_or_ps(
+            _mm_cmpgt_ps(_mm_min_ps(u, _mm_min_ps(v, w)), zero),
+            _mm_cmplt_ps(_mm_max_ps(u, _mm_max_ps(v, w)), zero),
         );
         Edges {
             u,
             v,
             w,
-            det,
-            ok,
+            strict,
             is_zero,
             dz: [az, bz, cz],
         }
+    }
+}
+
+impl Edges {
+    /// The reference's determinant `u + v + w`. Of the lanes of `strict`, those where the
+    /// reference's sign test passes (no exact zero, no mixed signs, a determinant neither zero
+    /// nor NaN) are the lanes whose determinant is not NaN:
+    ///
+    /// * a NaN edge function makes the sum NaN, so an ordered determinant means none is NaN,
+    ///   and then `strict` is exact: all three are non-zero and of one sign;
+    /// * a sum of non-zero values of one sign is not zero (rounding never takes it below its
+    ///   largest term), and not NaN (no `∞ - ∞`).
+    ///
+    /// A NaN determinant needs no mask of its own: it makes the distance NaN, which
+    /// [`accept4`] rejects. Computed only for packets with a `strict` lane (most have none).
+    #[inline(always)]
+    unsafe fn det(&self) -> __m128 {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { _mm_add_ps(_mm_add_ps(self.u, self.v), self.w) }
     }
 }
 
@@ -281,7 +297,8 @@ unsafe fn t_scaled(e: &Edges, z: [__m128; 3]) -> __m128 {
 
 /// [`accept_hit`] of the 4 lanes of a packet whose watertight test computed the distance `t`
 /// (degenerate triangles are stored as NaN lanes, which never pass the edge tests, so the
-/// degeneracy check is not repeated): the [`slab_span`] `[n, f]` of each lane's triangle
+/// degeneracy check is not repeated; a NaN distance, from a NaN determinant, fails the range
+/// check below, as `maxps` returns it and `minps` then returns it too): the [`slab_span`] `[n, f]` of each lane's triangle
 /// bounds, with the operations of the reference, `t` clamped into
 /// it (`minps(f, maxps(n, t))` is exactly [`clamp_to_span`]), and the range check against
 /// `[tmin, min(tmax, hi)]` with finiteness. Returns `(accepted mask, reported t)`. `NEG` as in
@@ -342,17 +359,17 @@ unsafe fn packet_closest<const NEG: bool>(
     unsafe {
         let e = tri4(p, r);
         let fallback = _mm_movemask_ps(e.is_zero) as u32;
-        let ok = _mm_andnot_ps(e.is_zero, e.ok);
-        if _mm_movemask_ps(ok) == 0 {
+        if _mm_movemask_ps(e.strict) == 0 {
             return (0, fallback);
         }
+        let det = e.det();
         let tfar = _mm_set1_ps(tfar);
         let (reach, z) = dominant_slab4::<NEG>(&e, r, tfar);
-        let ok = _mm_and_ps(ok, reach);
+        let ok = _mm_and_ps(e.strict, reach);
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let inv = _mm_div_ps(_mm_set1_ps(1.0), e.det);
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
         let hi = _mm_min_ps(r.t_hi, tfar);
         let (accepted, t) = accept4::<NEG>(p, r, _mm_mul_ps(t_scaled(&e, z), inv), hi);
         let ok = _mm_and_ps(ok, accepted);
@@ -372,16 +389,16 @@ unsafe fn packet_occluded<const NEG: bool>(p: &TriPacket, r: &SseRay) -> (u32, u
     unsafe {
         let e = tri4(p, r);
         let fallback = _mm_movemask_ps(e.is_zero) as u32;
-        let ok = _mm_andnot_ps(e.is_zero, e.ok);
-        if _mm_movemask_ps(ok) == 0 {
+        if _mm_movemask_ps(e.strict) == 0 {
             return (0, fallback);
         }
+        let det = e.det();
         let (reach, z) = dominant_slab4::<NEG>(&e, r, r.t_hi);
-        let ok = _mm_and_ps(ok, reach);
+        let ok = _mm_and_ps(e.strict, reach);
         if _mm_movemask_ps(ok) == 0 {
             return (0, fallback);
         }
-        let inv = _mm_div_ps(_mm_set1_ps(1.0), e.det);
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
         let (accepted, _) = accept4::<NEG>(p, r, _mm_mul_ps(t_scaled(&e, z), inv), r.t_hi);
         let hits = _mm_movemask_ps(_mm_and_ps(ok, accepted)) as u32;
         (hits, fallback)
