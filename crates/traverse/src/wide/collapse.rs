@@ -94,23 +94,16 @@ impl Source<'_> {
     /// degenerate triangle, which never hits, and for a box primitive) and its index.
     pub(crate) fn fill_lane(&self, p: &mut TriPacket, lane: usize, prim: u32) {
         p.prims[lane] = prim;
-        for k in 0..3 {
-            for a in 0..3 {
-                p.v[k][a][lane] = f32::NAN;
-            }
-        }
-        let Source::Triangles(tris) = self else {
-            return;
+        // Never hit (`accept_hit`): NaN vertices for a degenerate triangle, which the packet
+        // tests never hit, so the SIMD tests need not check for degenerate triangles; NaN for
+        // a box primitive too.
+        let tri = match self {
+            Source::Triangles(tris) => Some(&tris[prim as usize]).filter(|t| !is_degenerate(t)),
+            Source::Boxes(_) => None,
         };
-        let t = &tris[prim as usize];
-        if is_degenerate(t) {
-            // Never hit (`accept_hit`): NaN vertices, which the packet tests never hit, so
-            // the SIMD tests need not check for degenerate triangles.
-            return;
-        }
         for k in 0..3 {
             for a in 0..3 {
-                p.v[k][a][lane] = t.v[k][a];
+                p.v[k][a][lane] = tri.map_or(f32::NAN, |t| t.v[k][a]);
             }
         }
     }
@@ -582,6 +575,8 @@ impl Kids {
 struct Scratch {
     prims: Vec<u32>,
     todo: Vec<usize>,
+    /// The references of a wide node's leaf children, one after the other.
+    node_prims: Vec<u32>,
 }
 
 /// Sorts at most [`LEAF_MAX`] values by rank, without a branch on the data: the value at `i`
@@ -660,16 +655,14 @@ impl<'o, const W: usize> Out<'o, W> {
         (i as u32, first)
     }
 
-    /// Writes the next packet; returns its global index.
-    fn packet(&mut self, p: TriPacket) -> usize {
+    /// The next packet's slot (the caller writes it).
+    fn packet(&mut self) -> &'o mut MaybeUninit<TriPacket> {
         let (first, rest) = std::mem::take(&mut self.packets)
             .split_first_mut()
             .expect("the counted block has room for this packet");
-        first.write(p);
-        let i = self.pbase;
         self.packets = rest;
         self.pbase += 1;
-        i
+        first
     }
 
     /// Splits off the first `s.nodes` nodes and `s.packets` packets.
@@ -732,7 +725,9 @@ impl<const W: usize> Layout<'_, W> {
                 packets,
                 pbase: 0,
             };
-            let root = self.leaf(0, &mut out, s);
+            self.leaf_prims(0, s);
+            let mut prims = std::mem::take(&mut s.prims);
+            let root = self.leaf(0, &mut prims, &mut out);
             assert!(out.is_used_up(), "the root leaf's shape was miscounted");
             return root;
         }
@@ -771,7 +766,7 @@ impl<const W: usize> Layout<'_, W> {
     /// dedup is skipped there: a primitive that such a tree references twice is stored twice,
     /// which changes no answer).
     fn leaf_prims(&self, bin: usize, s: &mut Scratch) {
-        let Scratch { prims, todo } = s;
+        let Scratch { prims, todo, .. } = s;
         prims.clear();
         todo.clear();
         todo.push(bin);
@@ -875,12 +870,28 @@ impl<const W: usize> Layout<'_, W> {
         let mut inner: [(usize, Option<&'o mut MaybeUninit<WideNode<W>>>); W] =
             std::array::from_fn(|_| (0, None));
         let mut m = 0;
+        // The references of every leaf child first, their primitives asked for all at once:
+        // they lie scattered over the whole primitive array, and the node's leaves then wait
+        // for memory together rather than one after the other.
+        s.node_prims.clear();
+        let mut ends = [0usize; W];
+        for (k, &c) in kids.as_slice().iter().enumerate() {
+            if self.plan.is_leaf(c) {
+                self.leaf_prims(c, s);
+                for &p in &s.prims {
+                    self.tris.prefetch(p);
+                }
+                s.node_prims.extend_from_slice(&s.prims);
+            }
+            ends[k] = s.node_prims.len();
+        }
         for (k, &c) in kids.as_slice().iter().enumerate() {
             for (row, v) in node.bounds.iter_mut().zip(rows(&nodes[c].bounds())) {
                 row[k] = v;
             }
             node.children[k] = if self.plan.is_leaf(c) {
-                self.leaf(c, &mut out, s)
+                let start = if k == 0 { 0 } else { ends[k - 1] };
+                self.leaf(c, &mut s.node_prims[start..ends[k]], &mut out)
             } else {
                 let (i, child_slot) = out.node();
                 inner[m] = (c, Some(child_slot));
@@ -902,14 +913,10 @@ impl<const W: usize> Layout<'_, W> {
         assert!(out.is_used_up(), "a block's shape was miscounted");
     }
 
-    /// Writes the wide leaf standing for binary node `bin` (its packets, and its nodes when
-    /// it holds more than [`LEAF_MAX`] references); returns the child reference.
-    fn leaf(&self, bin: usize, out: &mut Out<'_, W>, s: &mut Scratch) -> u32 {
-        self.leaf_prims(bin, s);
-        let prims = &mut s.prims;
-        for &p in prims.iter() {
-            self.tris.prefetch(p);
-        }
+    /// Writes the wide leaf standing for binary node `bin`, whose references
+    /// ([`Layout::leaf_prims`]) are `prims` (its packets, and its nodes when it holds more than
+    /// [`LEAF_MAX`] references); returns the child reference.
+    fn leaf(&self, bin: usize, prims: &mut [u32], out: &mut Out<'_, W>) -> u32 {
         for &p in prims.iter() {
             assert!(
                 (p as usize) < self.tris.len(),
@@ -935,7 +942,7 @@ impl<const W: usize> Layout<'_, W> {
                 "too many triangle packets"
             );
             for chunk in prims.chunks(4) {
-                out.packet(self.packet(chunk));
+                self.packet(chunk, out.packet());
             }
             return encode_leaf(first, prims.len().div_ceil(4));
         }
@@ -964,15 +971,15 @@ impl<const W: usize> Layout<'_, W> {
         k
     }
 
-    fn packet(&self, prims: &[u32]) -> TriPacket {
-        let mut p = TriPacket {
+    /// Writes the packet of (at most 4) `prims` into `slot`, in place.
+    fn packet(&self, prims: &[u32], slot: &mut MaybeUninit<TriPacket>) {
+        let p = slot.write(TriPacket {
             v: [[[f32::NAN; 4]; 3]; 3],
             prims: [u32::MAX; 4],
-        };
+        });
         for (lane, &prim) in prims.iter().enumerate() {
-            self.tris.fill_lane(&mut p, lane, prim);
+            self.tris.fill_lane(p, lane, prim);
         }
-        p
     }
 }
 
