@@ -390,23 +390,13 @@ impl PlanRows<'_> {
         };
         let mut dist = [0.0f32; 9];
         let mut dist_k = [0u8; 9];
-        for (j, (d, dk)) in dist[..=width]
-            .iter_mut()
-            .zip(dist_k[..=width].iter_mut())
-            .enumerate()
-            .skip(2)
-        {
-            let mut best = f32::INFINITY;
-            let mut best_k = 1;
-            for k in 1..j {
-                let c = l[k - 1] + r[j - k - 1];
-                if c < best {
-                    best = c;
-                    best_k = k;
-                }
-            }
-            *d = best;
-            *dk = best_k as u8;
+        let nodes = &self.bvh.nodes;
+        if nodes[i + 1].is_leaf() {
+            distribute_left_leaf(l[0], r, &mut dist[..=width], &mut dist_k[..=width]);
+        } else if nodes[node.index as usize].is_leaf() {
+            distribute_right_leaf(l, r[0], &mut dist[..=width], &mut dist_k[..=width]);
+        } else {
+            distribute(l, r, &mut dist[..=width], &mut dist_k[..=width]);
         }
         let inner = area * C_NODE + dist[width];
         let leaf = if refs <= LEAF_MAX as u64 {
@@ -432,6 +422,58 @@ impl PlanRows<'_> {
             }
         }
         dist_k[width]
+    }
+}
+
+/// `distribute(n, j)` for `j` in `2..dist.len()` from the rows `l` and `r` of `n`'s children:
+/// `dist[j]` is the least `l[k - 1] + r[j - k - 1]` over `0 < k < j`, and `dist_k[j]` the first
+/// `k` that reaches it. `O(W²)` additions.
+#[inline]
+fn distribute(l: &[f32], r: &[f32], dist: &mut [f32], dist_k: &mut [u8]) {
+    for j in 2..dist.len() {
+        let mut best = f32::INFINITY;
+        let mut best_k = 1;
+        for k in 1..j {
+            let c = l[k - 1] + r[j - k - 1];
+            if c < best {
+                best = c;
+                best_k = k;
+            }
+        }
+        dist[j] = best;
+        dist_k[j] = best_k as u8;
+    }
+}
+
+/// [`distribute`] where the left child is a binary leaf, whose row is the constant `l0`, in
+/// `O(W)`. The same values bit for bit: every row is non-increasing (`cost(n, i)` is a minimum
+/// over more choices as `i` grows) and free of NaN (areas are finite and non-negative, and
+/// the scale is finite), so `l0 + r[j - k - 1]` (rounding is monotonic) is least at `k = 1`,
+/// the first `k` [`distribute`] would keep.
+#[inline]
+fn distribute_left_leaf(l0: f32, r: &[f32], dist: &mut [f32], dist_k: &mut [u8]) {
+    for j in 2..dist.len() {
+        dist[j] = l0 + r[j - 2];
+        dist_k[j] = 1;
+    }
+}
+
+/// [`distribute`] where the right child is a binary leaf, whose row is the constant `r0`, in
+/// `O(W)`. The candidates `l[k - 1] + r0` then do not depend on `j`, so [`distribute`]'s scan
+/// for `j` is its scan for `j - 1` followed by the one new candidate `k = j - 1`: one running
+/// scan gives the same values and the same `k`, bit for bit, whatever the rows hold.
+#[inline]
+fn distribute_right_leaf(l: &[f32], r0: f32, dist: &mut [f32], dist_k: &mut [u8]) {
+    let mut best = f32::INFINITY;
+    let mut best_k = 1;
+    for j in 2..dist.len() {
+        let c = l[j - 2] + r0;
+        if c < best {
+            best = c;
+            best_k = j - 1;
+        }
+        dist[j] = best;
+        dist_k[j] = best_k as u8;
     }
 }
 
@@ -1225,6 +1267,38 @@ mod tests {
             bits(&collapse::<8>(&bvh, Source::Triangles(&tris)))
         );
         same_bits_in_parallel(&bvh, &tris, &w);
+    }
+
+    /// The `O(W)` distributions for a leaf child equal the full scan bit for bit, on rows as
+    /// the plan makes them (non-increasing, a leaf's constant), with ties and infinities.
+    #[test]
+    fn leaf_child_distributions_equal_the_full_scan() {
+        let mut rng = Pcg32::new(5, 9);
+        // A non-increasing row of `w` costs from a few values (so that ties are common).
+        let row = |rng: &mut Pcg32, w: usize| -> Vec<f32> {
+            let vals = [f32::INFINITY, 9.0, 4.5, 3.0, 3.0, 1.25, 0.1, 0.0];
+            let mut r: Vec<f32> = (0..w)
+                .map(|_| vals[(rng.next_u32() % vals.len() as u32) as usize])
+                .collect();
+            r.sort_by(|a, b| b.total_cmp(a));
+            r
+        };
+        for w in [4usize, 8] {
+            for case in 0..5000 {
+                let (l, r) = (row(&mut rng, w), row(&mut rng, w));
+                let leaf = [0.75f32, f32::INFINITY, 3.0][case % 3];
+                let mut want = ([0.0f32; 9], [0u8; 9]);
+                let mut got = ([0.0f32; 9], [0u8; 9]);
+                distribute(&[leaf; 8][..w], &r, &mut want.0[..=w], &mut want.1[..=w]);
+                distribute_left_leaf(leaf, &r, &mut got.0[..=w], &mut got.1[..=w]);
+                assert_eq!(want.0.map(f32::to_bits), got.0.map(f32::to_bits), "{r:?}");
+                assert_eq!(want.1, got.1, "left leaf {leaf}, right row {r:?}");
+                distribute(&l, &[leaf; 8][..w], &mut want.0[..=w], &mut want.1[..=w]);
+                distribute_right_leaf(&l, leaf, &mut got.0[..=w], &mut got.1[..=w]);
+                assert_eq!(want.0.map(f32::to_bits), got.0.map(f32::to_bits), "{l:?}");
+                assert_eq!(want.1, got.1, "left row {l:?}, right leaf {leaf}");
+            }
+        }
     }
 
     #[test]
