@@ -6,6 +6,8 @@ mod build_bench;
 mod bvh_cmd;
 #[cfg(feature = "embree")]
 mod embree;
+#[cfg(feature = "embree")]
+mod embree_tree;
 mod eval;
 mod hardcases;
 mod measure;

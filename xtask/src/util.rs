@@ -114,6 +114,11 @@ pub fn builder(name: &str) -> Result<Box<dyn sahara_builders::Builder>> {
     if name == crate::obvhs::PLOC_NAME {
         return Ok(Box::new(crate::obvhs::PlocBuilder));
     }
+    // Embree's binned and spatial-split trees, converted (feature `embree`).
+    #[cfg(feature = "embree")]
+    if let Some(b) = crate::embree_tree::EmbreeTreeBuilder::by_name(name) {
+        return Ok(Box::new(b));
+    }
     sahara_builders::registry::by_name(name).with_context(|| {
         format!(
             "unknown builder '{name}'; known: {}",
