@@ -20,7 +20,9 @@
 //! the reference array has room for 20% more references, Embree's default for its scenes.
 //!
 //! Embree's build runs on its own thread pool (all cores; `SAHARA_EMBREE_CONFIG` is passed to
-//! the device). Its parallel partitions are not promised to be deterministic, so two builds
+//! the device, which is created once per process and configuration, so a build's time does
+//! not include it; the callbacks, the clipper above all, still make these builds slower than
+//! a scene commit). Its parallel partitions are not promised to be deterministic, so two builds
 //! may differ in the order of a leaf's references; these builders are for measurements, not
 //! for trees that must be reproduced bit for bit. See docs/embree.md.
 
@@ -223,7 +225,7 @@ unsafe extern "C" fn split_primitive(
     }
 }
 
-/// An Embree device and BVH object, released on drop.
+/// A reference to an Embree device and a BVH object, released on drop.
 struct Handles {
     device: sys::RTCDevice,
     bvh: sys::RTCBVH,
@@ -231,7 +233,7 @@ struct Handles {
 
 impl Drop for Handles {
     fn drop(&mut self) {
-        // SAFETY: created in `build`, released once; the BVH before its device.
+        // SAFETY: retained or created in `build`, released once; the BVH before its device.
         unsafe {
             if !self.bvh.is_null() {
                 sys::rtcReleaseBVH(self.bvh);
@@ -239,6 +241,41 @@ impl Drop for Handles {
             sys::rtcReleaseDevice(self.device);
         }
     }
+}
+
+/// A device handle that may cross threads (Embree's devices are thread-safe).
+struct SharedDevice(sys::RTCDevice);
+
+// SAFETY: Embree documents its API calls on a device as thread-safe; the handle is only
+// retained, used and released through that API.
+unsafe impl Send for SharedDevice {}
+
+/// The device of the last build and its configuration: later builds with the same
+/// configuration reuse it, so that a build's time does not include creating a device (Embree
+/// starts its thread pool there). Kept until the process ends.
+static DEVICE: std::sync::Mutex<Option<(String, SharedDevice)>> = std::sync::Mutex::new(None);
+
+/// A new reference to the device of `config` (created on first use, or when the
+/// configuration changed); the caller releases it.
+fn device(config: &str) -> Result<sys::RTCDevice, BuildError> {
+    let mut slot = DEVICE.lock().unwrap_or_else(|e| e.into_inner());
+    if slot.as_ref().is_none_or(|(c, _)| c != config) {
+        let c =
+            CString::new(config).map_err(|_| failed("SAHARA_EMBREE_CONFIG contains a NUL byte"))?;
+        // SAFETY: a NUL-terminated configuration; the result is checked for null.
+        let d = unsafe { sys::rtcNewDevice(c.as_ptr()) };
+        if d.is_null() {
+            return Err(failed("rtcNewDevice failed"));
+        }
+        if let Some((_, old)) = slot.replace((config.to_string(), SharedDevice(d))) {
+            // SAFETY: the cache's own reference; builds still running hold their own.
+            unsafe { sys::rtcReleaseDevice(old.0) };
+        }
+    }
+    let d = slot.as_ref().expect("set above").1 .0;
+    // SAFETY: a live device (the cache holds a reference while the lock is held).
+    unsafe { sys::rtcRetainDevice(d) };
+    Ok(d)
 }
 
 fn failed(what: &str) -> BuildError {
@@ -286,16 +323,11 @@ impl Builder for EmbreeTreeBuilder {
                 primID: i as u32,
             });
         }
-        let config = CString::new(std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default())
-            .map_err(|_| failed("SAHARA_EMBREE_CONFIG contains a NUL byte"))?;
-        // SAFETY: a NUL-terminated configuration; the handles are checked for null and
-        // released by `Handles`; `prims` has `capacity` elements of room (the HIGH builder
-        // writes split references into it), and `clipper` outlives the build.
+        let device = device(&std::env::var("SAHARA_EMBREE_CONFIG").unwrap_or_default())?;
+        // SAFETY: `device` is a retained reference, released by `Handles` (as is the BVH,
+        // checked for null); `prims` has `capacity` elements of room (the HIGH builder writes
+        // split references into it), and `clipper` outlives the build.
         unsafe {
-            let device = sys::rtcNewDevice(config.as_ptr());
-            if device.is_null() {
-                return Err(failed("rtcNewDevice failed"));
-            }
             let mut h = Handles {
                 device,
                 bvh: std::ptr::null_mut(),

@@ -263,6 +263,16 @@ pub fn headline_layout(layouts: &[String]) -> String {
         .unwrap_or_else(|| "bvh2".into())
 }
 
+/// True when `builder` splits triangles: the registry's `spatial` flag, or Embree's
+/// spatial-split tree (`embree-high`, not a registry entry). An unknown name is not spatial
+/// (it fails later, when it is built).
+fn is_spatial(builder: &str) -> bool {
+    builder == "embree-high"
+        || sahara_builders::registry::entries()
+            .iter()
+            .any(|e| e.name == builder && e.spatial)
+}
+
 /// True when `builder` should be skipped on a scene of `triangles` (only for builders the
 /// user did not name: a named builder always runs).
 fn impractical(builder: &str, triangles: usize, named: bool) -> bool {
@@ -285,9 +295,12 @@ impl Args {
         } else {
             self.builders.clone()
         };
-        // The references every comparison needs come first.
+        // The references the run's comparisons need come first: `sweep` always, `sbvh` when a
+        // spatial-split builder is in the run (only their "vs sbvh" figures use it).
+        let needs_spatial = builders.iter().any(|b| is_spatial(b));
         for r in [SPATIAL_REFERENCE, REFERENCE] {
-            if !builders.iter().any(|b| b == r) {
+            let needed = r == REFERENCE || needs_spatial;
+            if needed && !builders.iter().any(|b| b == r) {
                 builders.insert(0, r.to_string());
             }
         }
@@ -964,6 +977,44 @@ fn copy_dir(from: &Path, to: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod reference_tests {
+    use super::Args;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        eval: Args,
+    }
+
+    fn builders(args: &[&str]) -> Vec<String> {
+        let cli = Cli::parse_from(std::iter::once("eval").chain(args.iter().copied()));
+        cli.eval.settings().builders
+    }
+
+    /// `sweep` joins every run first; `sbvh` only runs with a spatial-split builder to compare.
+    #[test]
+    fn the_spatial_reference_joins_only_runs_with_spatial_builders() {
+        assert_eq!(builders(&["--builders", "binned"]), ["sweep", "binned"]);
+        assert_eq!(
+            builders(&["--builders", "ploc,tsah-topk"]),
+            ["sweep", "ploc", "tsah-topk"]
+        );
+        assert_eq!(
+            builders(&["--builders", "tsah-sbvh"]),
+            ["sweep", "sbvh", "tsah-sbvh"]
+        );
+        assert_eq!(
+            builders(&["--builders", "binned,sbvh+reinsert"]),
+            ["sweep", "sbvh", "binned", "sbvh+reinsert"]
+        );
+        assert_eq!(builders(&["--builders", "sbvh,sweep"]), ["sweep", "sbvh"]);
+        let default = builders(&[]);
+        assert_eq!(&default[..2], ["sweep", "sbvh"], "{default:?}");
+    }
 }
 
 #[cfg(test)]
