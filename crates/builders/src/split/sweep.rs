@@ -310,6 +310,115 @@ fn best_split_of_two(
     (node, best)
 }
 
+/// Nodes of at most this many primitives are searched by [`best_split_small`].
+const SMALL_SWEEP: usize = 32;
+
+/// [`best_split`] of a node of `3..=SMALL_SWEEP` primitives without a branch per position,
+/// bit for bit its answer, or `None` where the shortcut's conditions fail (then the general
+/// search runs).
+///
+/// The pruned search of [`best_on_axis`] returns the best of all positions under
+/// [`SplitCandidate::better_than`] (a pruned position costs strictly more than the best), but
+/// its branches on each position's score and cost mispredict at small nodes, where they are
+/// most of the time. Here every position's score `s = A_l n_l + A_r n_r` is computed first,
+/// with the operations of the general search, and only positions whose score is within a
+/// factor `1 + 2^-16` of the smallest, `s_min`, are costed and compared. The others cost
+/// strictly more than the position of `s_min`, so they cannot be the best.
+///
+/// Why. Eq. 2 is `c(s) = c_t + y(s)` with `y(s) = (s c_i) / A` rounded twice. Where
+/// `y(s_min) >= 2^-30 c_t`, all of `c_t >= 0`, `c_i > 0`, `A > 0` and `s_min` are finite and
+/// `y(s_min)` is far from the subnormals (at least `2^-900`), a score `s > s_min (1 + 2^-16)`
+/// gives `y(s) - y(s_min) > 2^-17 y(s_min)`, which is more than two units in the last place
+/// of `c_t + y(s_min) <= (2^30 + 1) y(s_min)`, so `c(s) > c(s_min)` after rounding. Where the
+/// conditions fail (a score that is infinite or NaN, a flat node, `c_t` swamping the areas),
+/// the function returns `None`.
+#[inline]
+fn best_split_small(
+    bounds: &[Aabb],
+    orders: [&[u32]; 3],
+    cost: &CostModel,
+) -> Option<(Aabb, SplitCandidate)> {
+    let n = orders[0].len();
+    debug_assert!((3..=SMALL_SWEEP).contains(&n));
+    use std::mem::MaybeUninit;
+    // Written for positions `1..n` of each axis before they are read (not zeroed: this runs
+    // at every small node).
+    let mut la = [[MaybeUninit::<f32>::uninit(); SMALL_SWEEP]; 3];
+    let mut ra = [[MaybeUninit::<f32>::uninit(); SMALL_SWEEP]; 3];
+    let mut score = [[MaybeUninit::<f64>::uninit(); SMALL_SWEEP]; 3];
+    let mut parent = [0.0f64; 3];
+    let mut node = Aabb::EMPTY;
+    let mut s_min = f64::INFINITY;
+    // `0` while every score is finite (`s · 0` is NaN for an infinite or NaN `s`).
+    let mut not_finite = 0.0f64;
+    let total = n as f64;
+    for axis in 0..3 {
+        let order = orders[axis];
+        let item = |j: usize| &bounds[order[j] as usize];
+        // The suffix pass, as `suffix_pass` grows it (the last axis's box is the node's).
+        let mut acc = Aabb::EMPTY;
+        for j in (1..n).rev() {
+            acc.grow_aabb(item(j));
+            ra[axis][j].write(acc.half_area());
+        }
+        acc.grow_aabb(item(0));
+        parent[axis] = acc.half_area() as f64;
+        node = acc;
+        let mut left = Aabb::EMPTY;
+        for j in 1..n {
+            left.grow_aabb(item(j - 1));
+            let l = left.half_area();
+            la[axis][j].write(l);
+            // `PositionRater::rate`'s score.
+            let n_left = j as f64;
+            // SAFETY: written by the suffix pass above (`j` in `1..n`).
+            let r = unsafe { ra[axis][j].assume_init() };
+            let sc = l as f64 * n_left + r as f64 * (total - n_left);
+            score[axis][j].write(sc);
+            not_finite += sc * 0.0;
+            s_min = if sc < s_min { sc } else { s_min };
+        }
+    }
+    let finite = not_finite == 0.0;
+    let (ct, ci) = (cost.traversal as f64, cost.intersection as f64);
+    let areas_ok = parent.iter().all(|&a| a > 0.0 && a.is_finite());
+    if !(finite && areas_ok && ct >= 0.0 && ci > 0.0 && ct.is_finite() && ci.is_finite()) {
+        return None;
+    }
+    let y_min = s_min * ci / parent[0];
+    if !(y_min >= ct * f64::powi(2.0, -30) && y_min >= f64::powi(2.0, -900) && y_min.is_finite()) {
+        return None;
+    }
+    let window = s_min * (1.0 + f64::powi(2.0, -16));
+    let mut best = SplitCandidate::fallback(n);
+    for axis in 0..3 {
+        for j in 1..n {
+            // SAFETY: positions `1..n` of every axis were written above.
+            if unsafe { score[axis][j].assume_init() } <= window {
+                let n_left = j as f64;
+                // SAFETY: as above.
+                let (l, r) = unsafe {
+                    (
+                        la[axis][j].assume_init() as f64,
+                        ra[axis][j].assume_init() as f64,
+                    )
+                };
+                let c = SplitCandidate {
+                    axis,
+                    pos: j,
+                    cost: cost.split_cost_counts(parent[axis], l, n_left, r, total - n_left),
+                    left_area: l,
+                    right_area: r,
+                };
+                if c.better_than(&best, n) {
+                    best = c;
+                }
+            }
+        }
+    }
+    Some((node, best))
+}
+
 /// The node's bounds and its greedy-best split by Eq. 2 (see [`SplitCandidate::better_than`]);
 /// for `n == 1` the split is a meaningless fallback.
 #[inline]
@@ -322,6 +431,11 @@ pub fn best_split(
     let n = orders[0].len();
     if n == 2 {
         return best_split_of_two(bounds, orders, areas, cost);
+    }
+    if (3..=SMALL_SWEEP).contains(&n) {
+        if let Some(r) = best_split_small(bounds, orders, cost) {
+            return r;
+        }
     }
     if n >= PAR_AXES_THRESHOLD && rayon::current_num_threads() > 1 {
         // The three axes at once, each with its own suffix buffer. The candidates are totally
@@ -746,6 +860,81 @@ mod tests {
                 assert_eq!(s1.to_bits(), s2.to_bits(), "case {case}: pruning bound");
             }
         }
+    }
+
+    /// The small-node search gives bit for bit the general search's candidate and node
+    /// bounds: every size it takes, boxes on coarse grids (ties of areas and scores), flat
+    /// boxes, clusters of tiny boxes far apart (the traversal cost swamps the areas), areas
+    /// that overflow, and cost models with a large traversal cost. It must also apply to most
+    /// ordinary nodes (else this tests nothing).
+    #[test]
+    fn small_node_search_equals_the_general_search() {
+        let mut rng = Pcg32::new(41, 7);
+        let (mut taken, mut ordinary) = (0, 0);
+        for case in 0..6000 {
+            let n = 3 + case % (SMALL_SWEEP - 2);
+            let kind = (case / (SMALL_SWEEP - 2)) % 6;
+            let bounds: Vec<Aabb> = (0..n)
+                .map(|i| match kind {
+                    // Tiny boxes near the origin and (rounded to) points 1e12 away.
+                    4 => {
+                        let b = grid_box(&mut rng, 5, 1e-20);
+                        let off = Vec3A::splat(if i % 2 == 0 { 0.0 } else { 1e12 });
+                        Aabb::new(b.min + off, b.max + off)
+                    }
+                    5 => grid_box(&mut rng, 7, 1e19),
+                    _ => grid_box(&mut rng, 3 + kind as u32 * 2, 1.0),
+                })
+                .collect();
+            let centroids: Vec<Vec3A> = bounds.iter().map(|b| b.centroid()).collect();
+            let ids: Vec<u32> = (0..n as u32).collect();
+            let o = sorted_orders(&centroids, &ids);
+            let orders = [&o[0][..], &o[1][..], &o[2][..]];
+            let cost = match case % 3 {
+                0 => CostModel::default(),
+                1 => CostModel {
+                    traversal: 3.0,
+                    intersection: 1.0,
+                },
+                // A traversal cost that swamps the areas' differences in rounding (cost
+                // ties between different scores): the shortcut must step aside.
+                _ => CostModel {
+                    traversal: 1e15,
+                    intersection: 1.0,
+                },
+            };
+            let mut areas = vec![0.0f32; n];
+            let mut general = SplitCandidate::fallback(n);
+            let mut s0 = f64::INFINITY;
+            let mut node = Aabb::EMPTY;
+            for (axis, o) in orders.iter().enumerate() {
+                node =
+                    best_on_axis_scalar(&bounds, o, axis, &mut areas, &cost, &mut general, &mut s0);
+            }
+            if kind < 4 && case % 3 != 2 {
+                ordinary += 1;
+            }
+            if let Some((small_node, small)) = best_split_small(&bounds, orders, &cost) {
+                taken += usize::from(kind < 4 && case % 3 != 2);
+                assert_eq!(box_bits(&small_node), box_bits(&node), "case {case}: node");
+                assert_eq!(cand_bits(&small), cand_bits(&general), "case {case}, n {n}");
+            }
+            let (bs_node, bs) = best_split(&bounds, orders, &mut areas, &cost);
+            assert_eq!(
+                box_bits(&bs_node),
+                box_bits(&node),
+                "case {case}: best_split node"
+            );
+            assert_eq!(
+                cand_bits(&bs),
+                cand_bits(&general),
+                "case {case}: best_split"
+            );
+        }
+        assert!(
+            taken * 10 > ordinary * 9,
+            "the shortcut took {taken} of {ordinary} ordinary nodes"
+        );
     }
 
     /// The pruned search of [`best_split`] picks exactly the candidate that rating every
