@@ -316,6 +316,36 @@ impl<'a> TopDown for Greedy<'a> {
         let m = self.memo?;
         (job.len() >= m.own.min_size()).then(|| (m, m.own.key(job.orders[0])))
     }
+
+    #[inline]
+    fn child_memo<'s>(
+        &'s self,
+        parent: &(topdown::MemoView<'s>, topdown::MemoKey),
+        left: &Job<'a>,
+        right: &Job<'a>,
+    ) -> [Option<(topdown::MemoView<'s>, topdown::MemoKey)>; 2] {
+        // Only the smaller child is hashed; the larger one's key is the rest of the parent's.
+        let (m, key) = *parent;
+        let min = m.own.min_size();
+        let left_smaller = left.len() <= right.len();
+        let (small, big) = if left_smaller {
+            (left, right)
+        } else {
+            (right, left)
+        };
+        if big.len() < min {
+            return [None, None];
+        }
+        let small_key = m.own.key(small.orders[0]);
+        let big_key = key.without(&small_key);
+        let small_memo = (small.len() >= min).then_some((m, small_key));
+        let big_memo = Some((m, big_key));
+        if left_smaller {
+            [small_memo, big_memo]
+        } else {
+            [big_memo, small_memo]
+        }
+    }
 }
 
 /// The leaf rule of the greedy builder: at most `max_leaf_size` primitives and no split
@@ -466,7 +496,7 @@ mod memo_tests {
         // The build over `labels` (a set in some order) with a memo of its own that reads
         // `other`: equal to the fresh build over `set`; returns the memo.
         let check = |labels: &[u32], set: &[u32], other: Option<&SubtreeMemo>| {
-            let own = SubtreeMemo::new(16, labels.to_vec());
+            let own = SubtreeMemo::new(16, labels);
             let view = MemoView { own: &own, other };
             let memoised = cost_of(&all, labels, Some(view));
             assert_eq!(bits(&memoised), bits(&cost_of(&all, set, None)));
@@ -489,5 +519,53 @@ mod memo_tests {
         // The first set labelled in z order: its whole tree is found at the root.
         let own = check(&in_z(big), big, Some(&parent));
         assert_eq!(own.len(), 0, "the relabelled build missed the memo");
+    }
+
+    /// The children's keys the rule derives from their parent's (the smaller child hashed,
+    /// the larger one the rest) are the keys of the children's own sets, and a child below
+    /// the memo's smallest size is not keyed.
+    #[test]
+    fn derived_child_keys_are_the_childrens_keys() {
+        use crate::topdown::TopDown;
+        let mut r = Pcg32::new(5, 9);
+        for case in 0..60 {
+            let n = 20 + (r.next_u32() % 400) as usize;
+            let bounds: Vec<Aabb> = (0..n)
+                .map(|_| {
+                    let o = Vec3A::new(r.next_f32(), r.next_f32(), r.next_f32()) * 10.0;
+                    Aabb::new(o, o + Vec3A::splat(0.1))
+                })
+                .collect();
+            let cents: Vec<Vec3A> = bounds.iter().map(Aabb::centroid).collect();
+            let global: Vec<u32> = (0..n as u32).map(|i| i * 7 + 3).collect();
+            let memo = SubtreeMemo::new(16, &global);
+            let marks = Marks::new(n);
+            let rule = Greedy {
+                bounds: &bounds,
+                cost: CostModel::default(),
+                max_leaf: 8,
+                marks: &marks,
+                parallel_threshold: usize::MAX,
+                memo: Some(MemoView {
+                    own: &memo,
+                    other: None,
+                }),
+            };
+            let mut storage = JobStorage::new(n, &cents);
+            let job = storage.root();
+            let parent = rule.memo(&job).expect("the root is keyed");
+            let axis = case % 3;
+            let pos = 1 + (r.next_u32() as usize) % (n - 1);
+            let (left, right) = job.split(axis, pos, &marks);
+            let derived = rule.child_memo(&parent, &left, &right);
+            for (child, got) in [(&left, derived[0]), (&right, derived[1])] {
+                let want = rule.memo(child).map(|m| m.1);
+                assert_eq!(
+                    got.map(|m| m.1),
+                    want,
+                    "case {case}: n {n}, split {axis}/{pos}"
+                );
+            }
+        }
     }
 }

@@ -165,6 +165,20 @@ pub trait TopDown: Sync {
     fn memo(&self, _task: &Self::Task) -> Option<(MemoView<'_>, MemoKey)> {
         None
     }
+
+    /// [`memo`](Self::memo) of the two children of a split node, given the node's own (the
+    /// driver asks only for the children of a node that [`memo`](Self::memo) keyed, so a rule
+    /// must not key a child whose parent it would not key). A rule may derive the keys from
+    /// the parent's, which is cheaper than hashing both children (see
+    /// [`MemoKey::without`]). By default [`memo`](Self::memo) of each child.
+    fn child_memo<'s>(
+        &'s self,
+        _parent: &(MemoView<'s>, MemoKey),
+        left: &Self::Task,
+        right: &Self::Task,
+    ) -> [Option<(MemoView<'s>, MemoKey)>; 2] {
+        [self.memo(left), self.memo(right)]
+    }
 }
 
 /// The set of references of a node, as a key of a [`SubtreeMemo`]: the number of references
@@ -177,6 +191,54 @@ pub struct MemoKey {
     a: u64,
     b: u64,
 }
+
+impl MemoKey {
+    /// The key of this set without the subset keyed `part` (which must be a subset of it):
+    /// the sums are of one hash per reference, so the difference is exactly the key the rest
+    /// of the set would get. A split node's larger child is keyed this way from the node and
+    /// the smaller child, which hashes only the smaller one.
+    #[inline]
+    pub fn without(&self, part: &MemoKey) -> MemoKey {
+        debug_assert!(part.n <= self.n);
+        MemoKey {
+            n: self.n - part.n,
+            a: self.a.wrapping_sub(part.a),
+            b: self.b.wrapping_sub(part.b),
+        }
+    }
+}
+
+/// Hashes a [`MemoKey`] for the memo's table: its sums are already uniformly mixed, so the
+/// table takes the first one and the count (a keyed hash such as the default SipHash would
+/// cost more than the lookup saves).
+#[derive(Default, Clone, Copy)]
+struct KeyHasher(u64);
+
+impl std::hash::Hasher for KeyHasher {
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ u64::from(b)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        }
+    }
+
+    #[inline]
+    fn write_u64(&mut self, x: u64) {
+        self.0 = self.0.rotate_left(29) ^ x;
+    }
+
+    #[inline]
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+}
+
+type KeyTable = std::collections::HashMap<MemoKey, Known, std::hash::BuildHasherDefault<KeyHasher>>;
 
 /// Subtree costs that cost-only builds over subsets of the same primitives share: the cost of
 /// a node's subtree is a function of its set of references for rules like the sweep (the same
@@ -196,9 +258,9 @@ pub struct MemoKey {
 #[derive(Debug)]
 pub struct SubtreeMemo {
     min_size: usize,
-    /// Global id of each local id.
-    global: Vec<u32>,
-    known: Mutex<std::collections::HashMap<MemoKey, Known>>,
+    /// The two hashes of each local id's global id (the terms of [`MemoKey`]'s sums).
+    hashes: Vec<[u64; 2]>,
+    known: Mutex<KeyTable>,
 }
 
 /// A memo entry: the subtree's cost, its root's left size (`0` for a leaf) and, when it was
@@ -213,10 +275,24 @@ struct Known {
 impl SubtreeMemo {
     /// An empty memo for nodes of at least `min_size` references (at least 2), whose builds
     /// label primitive `global[i]` as `i`.
-    pub fn new(min_size: usize, global: Vec<u32>) -> Self {
+    pub fn new(min_size: usize, global: &[u32]) -> Self {
+        // splitmix64's finaliser, of two different inputs per primitive.
+        #[inline(always)]
+        fn mix(mut z: u64) -> u64 {
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+        let hashes = global
+            .iter()
+            .map(|&g| {
+                let x = u64::from(g).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                [mix(x), mix(x ^ 0x5851_f42d_4c95_7f2d)]
+            })
+            .collect();
         Self {
             min_size: min_size.max(2),
-            global,
+            hashes,
             known: Mutex::new(Default::default()),
         }
     }
@@ -230,18 +306,11 @@ impl SubtreeMemo {
     /// The key of the set of local `ids` (in any order).
     #[inline]
     pub fn key(&self, ids: &[u32]) -> MemoKey {
-        // splitmix64's finaliser, of two different inputs per primitive.
-        #[inline(always)]
-        fn mix(mut z: u64) -> u64 {
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^ (z >> 31)
-        }
         let (mut a, mut b) = (0u64, 0u64);
         for &id in ids {
-            let x = u64::from(self.global[id as usize]).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-            a = a.wrapping_add(mix(x));
-            b = b.wrapping_add(mix(x ^ 0x5851_f42d_4c95_7f2d));
+            let [x, y] = self.hashes[id as usize];
+            a = a.wrapping_add(x);
+            b = b.wrapping_add(y);
         }
         MemoKey { n: ids.len(), a, b }
     }
@@ -509,7 +578,8 @@ pub fn cost<H: TopDown>(
     cost: &CostModel,
     scratch: &mut H::Scratch,
 ) -> SubtreeCost {
-    cost_rec(hook, task, cost, scratch, 0)
+    let memo = hook.memo(&task);
+    cost_rec(hook, task, memo, cost, scratch, 0)
 }
 
 /// Levels of a subtree whose node costs [`cost_with_top_levels`] records.
@@ -604,15 +674,32 @@ pub fn cost_with_top_levels<H: TopDown>(
     scratch: &mut H::Scratch,
 ) -> (SubtreeCost, TopLevels) {
     let mut top = TopLevels::NONE;
-    let c = cost_top(hook, task, cost, scratch, 0, 0, &mut top);
+    let memo = hook.memo(&task);
+    let c = cost_top(hook, task, memo, cost, scratch, 0, 0, &mut top);
     (c, top)
 }
 
+/// The memo of a node's children ([`TopDown::child_memo`]), given the node's.
+#[inline]
+fn child_memo<'h, H: TopDown>(
+    hook: &'h H,
+    memo: &Option<(MemoView<'h>, MemoKey)>,
+    left: &H::Task,
+    right: &H::Task,
+) -> [Option<(MemoView<'h>, MemoKey)>; 2] {
+    match memo {
+        Some(m) => hook.child_memo(m, left, right),
+        None => [None, None],
+    }
+}
+
 /// [`cost_rec`] recording the node of heap index `index` at `depth` (and its subtree's top
-/// levels) in `top`.
-fn cost_top<H: TopDown>(
-    hook: &H,
+/// levels) in `top`. `memo` is [`TopDown::memo`] of the task.
+#[allow(clippy::too_many_arguments)]
+fn cost_top<'h, H: TopDown>(
+    hook: &'h H,
     task: H::Task,
+    memo: Option<(MemoView<'h>, MemoKey)>,
     cost: &CostModel,
     scratch: &mut H::Scratch,
     depth: usize,
@@ -620,9 +707,8 @@ fn cost_top<H: TopDown>(
     top: &mut TopLevels,
 ) -> SubtreeCost {
     if depth >= TOP_LEVELS {
-        return cost_rec(hook, task, cost, scratch, depth);
+        return cost_rec(hook, task, memo, cost, scratch, depth);
     }
-    let memo = hook.memo(&task);
     if let Some(k) = memo.and_then(|(m, key)| m.get(&key)) {
         match k.top {
             Some(sub) => top.implant(&sub, index, depth),
@@ -638,8 +724,18 @@ fn cost_top<H: TopDown>(
             right,
         } => {
             let left_len = hook.size(&left);
-            let l = cost_top(hook, left, cost, scratch, depth + 1, 2 * index + 1, top);
-            let r = cost_top(hook, right, cost, scratch, depth + 1, 2 * index + 2, top);
+            let [ml, mr] = child_memo(hook, &memo, &left, &right);
+            let l = cost_top(hook, left, ml, cost, scratch, depth + 1, 2 * index + 1, top);
+            let r = cost_top(
+                hook,
+                right,
+                mr,
+                cost,
+                scratch,
+                depth + 1,
+                2 * index + 2,
+                top,
+            );
             (inner_value(cost, half_area(&bounds), &l, &r), left_len)
         }
     };
@@ -661,9 +757,11 @@ fn cost_top<H: TopDown>(
 /// Levels of [`cost`] that recurse on the call stack.
 pub const COST_RECURSION: usize = 48;
 
-fn cost_rec<H: TopDown>(
-    hook: &H,
+/// `memo` is [`TopDown::memo`] of the task.
+fn cost_rec<'h, H: TopDown>(
+    hook: &'h H,
     task: H::Task,
+    memo: Option<(MemoView<'h>, MemoKey)>,
     cost: &CostModel,
     scratch: &mut H::Scratch,
     depth: usize,
@@ -671,7 +769,6 @@ fn cost_rec<H: TopDown>(
     if depth >= COST_RECURSION {
         return cost_iterative(hook, task, cost, scratch);
     }
-    let memo = hook.memo(&task);
     if let Some(k) = memo.and_then(|(m, key)| m.get(&key)) {
         return k.cost;
     }
@@ -683,8 +780,9 @@ fn cost_rec<H: TopDown>(
             right,
         } => {
             let left_len = hook.size(&left);
-            let l = cost_rec(hook, left, cost, scratch, depth + 1);
-            let r = cost_rec(hook, right, cost, scratch, depth + 1);
+            let [ml, mr] = child_memo(hook, &memo, &left, &right);
+            let l = cost_rec(hook, left, ml, cost, scratch, depth + 1);
+            let r = cost_rec(hook, right, mr, cost, scratch, depth + 1);
             (inner_value(cost, half_area(&bounds), &l, &r), left_len)
         }
     };

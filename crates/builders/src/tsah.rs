@@ -384,14 +384,15 @@ pub(crate) fn sweep_sides(
         ..
     } = sc;
     marks.reserve_ids(n);
+    // One spare id at the end of each side's buffers (`split_orders_padded`).
     for (l, r) in left.iter_mut().zip(right.iter_mut()) {
-        l.resize(c.pos, 0);
-        r.resize(n - c.pos, 0);
+        l.resize(c.pos + 1, 0);
+        r.resize(n - c.pos + 1, 0);
     }
     {
         let [l0, l1, l2] = &mut *left;
         let [r0, r1, r2] = &mut *right;
-        sweep::split_orders(
+        crate::split::sweep::split_orders_padded(
             node.orders(),
             c.axis,
             c.pos,
@@ -403,6 +404,8 @@ pub(crate) fn sweep_sides(
     let marks = &*marks;
     let side = |o: &mut [Vec<u32>; 3], s: &mut SweepScratch| {
         let [a, b, c] = o;
+        let len = a.len() - 1;
+        let (a, b, c) = (&mut a[..len], &mut b[..len], &mut c[..len]);
         sweep::sweep_cost_memo(
             &node.bounds,
             [a, b, c],

@@ -348,9 +348,6 @@ fn best_split_small(
     let mut score = [[MaybeUninit::<f64>::uninit(); SMALL_SWEEP]; 3];
     let mut parent = [0.0f64; 3];
     let mut node = Aabb::EMPTY;
-    let mut s_min = f64::INFINITY;
-    // `0` while every score is finite (`s · 0` is NaN for an infinite or NaN `s`).
-    let mut not_finite = 0.0f64;
     let total = n as f64;
     for axis in 0..3 {
         let order = orders[axis];
@@ -365,21 +362,40 @@ fn best_split_small(
         parent[axis] = acc.half_area() as f64;
         node = acc;
         let mut left = Aabb::EMPTY;
-        for j in 1..n {
+        for (j, slot) in la[axis].iter_mut().enumerate().take(n).skip(1) {
             left.grow_aabb(item(j - 1));
-            let l = left.half_area();
-            la[axis][j].write(l);
-            // `PositionRater::rate`'s score.
-            let n_left = j as f64;
-            // SAFETY: written by the suffix pass above (`j` in `1..n`).
-            let r = unsafe { ra[axis][j].assume_init() };
-            let sc = l as f64 * n_left + r as f64 * (total - n_left);
-            score[axis][j].write(sc);
-            not_finite += sc * 0.0;
-            s_min = if sc < s_min { sc } else { s_min };
+            slot.write(left.half_area());
         }
     }
-    let finite = not_finite == 0.0;
+    // `PositionRater::rate`'s scores, in a pass of their own: the smallest score and the
+    // finiteness test are accumulated in four independent lanes, so no chain of dependent additions or minima runs through the positions. The
+    // smallest of non-negative scores does not depend on the order it is taken in, and `NaN`
+    // scores never win a `<` (they are caught by the finiteness test).
+    let mut s_mins = [f64::INFINITY; 4];
+    // `0` while every score is finite (`s · 0` is NaN for an infinite or NaN `s`).
+    let mut not_finite = [0.0f64; 4];
+    for axis in 0..3 {
+        // Positions `j..j + 4` in lanes `0..4` (the inner loop is unrolled, so the lanes
+        // stay in registers); the last block stops at `n`.
+        for j in (1..n).step_by(4) {
+            for k in 0..4 {
+                let p = j + k;
+                if p < n {
+                    let n_left = p as f64;
+                    // SAFETY: positions `1..n` of both arrays were written above.
+                    let (l, r) = unsafe { (la[axis][p].assume_init(), ra[axis][p].assume_init()) };
+                    let sc = l as f64 * n_left + r as f64 * (total - n_left);
+                    score[axis][p].write(sc);
+                    not_finite[k] += sc * 0.0;
+                    s_mins[k] = if sc < s_mins[k] { sc } else { s_mins[k] };
+                }
+            }
+        }
+    }
+    let s_min = s_mins
+        .iter()
+        .fold(f64::INFINITY, |m, &s| if s < m { s } else { m });
+    let finite = not_finite.iter().sum::<f64>() == 0.0;
     let (ct, ci) = (cost.traversal as f64, cost.intersection as f64);
     let areas_ok = parent.iter().all(|&a| a > 0.0 && a.is_finite());
     if !(finite && areas_ok && ct >= 0.0 && ci > 0.0 && ct.is_finite() && ci.is_finite()) {
@@ -485,23 +501,68 @@ pub fn split_orders(
     left: [&mut [u32]; 3],
     right: [&mut [u32]; 3],
 ) {
+    split_orders_into::<0>(orders, axis, pos, marks, left, right);
+}
+
+/// [`split_orders`] into buffers one id longer than the sides (`left[k].len() == pos + 1`,
+/// `right[k].len() == n - pos + 1`; the last id of each is scratch), without a branch per id:
+/// on the orders not split, whether an id goes left is not predictable, so each id is written
+/// at both cursors and only its side's cursor advances (the other write is overwritten later,
+/// or lands in the spare last slot). The split order itself is copied.
+pub(crate) fn split_orders_padded(
+    orders: [&[u32]; 3],
+    axis: usize,
+    pos: usize,
+    marks: &Marks,
+    left: [&mut [u32]; 3],
+    right: [&mut [u32]; 3],
+) {
+    split_orders_into::<1>(orders, axis, pos, marks, left, right);
+}
+
+/// [`split_orders`] (`PAD == 0`, exact buffers, a branch per id) or
+/// [`split_orders_padded`] (`PAD == 1`).
+fn split_orders_into<const PAD: usize>(
+    orders: [&[u32]; 3],
+    axis: usize,
+    pos: usize,
+    marks: &Marks,
+    left: [&mut [u32]; 3],
+    right: [&mut [u32]; 3],
+) {
     let n = orders[axis].len();
     assert!(pos > 0 && pos < n, "split position {pos} outside 1..{n}");
     for &id in &orders[axis][..pos] {
         marks.set(id, true);
     }
-    for ((order, l), r) in orders.iter().zip(left).zip(right) {
+    for (k, ((order, l), r)) in orders.iter().zip(left).zip(right).enumerate() {
         assert_eq!(order.len(), n);
-        assert_eq!(l.len(), pos);
-        assert_eq!(r.len(), n - pos);
+        assert_eq!(l.len(), pos + PAD);
+        assert_eq!(r.len(), n - pos + PAD);
         let (mut li, mut ri) = (0, 0);
-        for &id in order.iter() {
-            if marks.get(id) {
+        if PAD == 0 {
+            for &id in order.iter() {
+                if marks.get(id) {
+                    l[li] = id;
+                    li += 1;
+                } else {
+                    r[ri] = id;
+                    ri += 1;
+                }
+            }
+        } else if k == axis {
+            l[..pos].copy_from_slice(&order[..pos]);
+            r[..n - pos].copy_from_slice(&order[pos..]);
+            li = pos;
+        } else {
+            for &id in order.iter() {
+                let m = marks.get(id) as usize;
+                // `li <= pos` and `ri <= n - pos` before every write (each counts the ids of
+                // its side seen so far), inside the padded buffers.
                 l[li] = id;
-                li += 1;
-            } else {
                 r[ri] = id;
-                ri += 1;
+                li += m;
+                ri += 1 - m;
             }
         }
         assert_eq!(li, pos, "orders do not hold the same ids");
@@ -989,6 +1050,51 @@ mod tests {
     }
 
     /// The in-place stable partition equals a plain filter of each order.
+    #[test]
+    fn padded_split_equals_split_orders() {
+        let mut rng = Pcg32::new(13, 4);
+        for case in 0..200 {
+            let n = 2 + (rng.next_u32() % 300) as usize;
+            let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
+            for o in base.iter_mut() {
+                for i in (1..n).rev() {
+                    o.swap(i, rng.next_u32() as usize % (i + 1));
+                }
+            }
+            let axis = case % 3;
+            let pos = 1 + rng.next_u32() as usize % (n - 1);
+            let orders = [&base[0][..], &base[1][..], &base[2][..]];
+            let marks = Marks::new(n);
+            let mut want_l = vec![vec![0u32; pos]; 3];
+            let mut want_r = vec![vec![0u32; n - pos]; 3];
+            {
+                let [a, b, c] = &mut want_l[..] else {
+                    unreachable!()
+                };
+                let [d, e, f] = &mut want_r[..] else {
+                    unreachable!()
+                };
+                split_orders(orders, axis, pos, &marks, [a, b, c], [d, e, f]);
+            }
+            let mut got_l = vec![vec![0u32; pos + 1]; 3];
+            let mut got_r = vec![vec![0u32; n - pos + 1]; 3];
+            {
+                let [a, b, c] = &mut got_l[..] else {
+                    unreachable!()
+                };
+                let [d, e, f] = &mut got_r[..] else {
+                    unreachable!()
+                };
+                split_orders_padded(orders, axis, pos, &marks, [a, b, c], [d, e, f]);
+            }
+            for k in 0..3 {
+                assert_eq!(got_l[k][..pos], want_l[k][..], "case {case}, left {k}");
+                assert_eq!(got_r[k][..n - pos], want_r[k][..], "case {case}, right {k}");
+            }
+            assert!((0..n as u32).all(|id| !marks.get(id)), "marks left set");
+        }
+    }
+
     #[test]
     fn partition_in_place_is_a_stable_partition() {
         let mut rng = Pcg32::new(11, 2);

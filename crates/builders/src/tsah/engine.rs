@@ -446,10 +446,7 @@ impl<'a, R: Rater> Rated<'a, R> {
                 relabel(orders[2]),
             ],
             area: node_bounds.half_area() as f64,
-            memo: Arc::new(SubtreeMemo::new(
-                MEMO_MIN.max(n / MEMO_FRACTION),
-                orders[0].to_vec(),
-            )),
+            memo: Arc::new(SubtreeMemo::new(MEMO_MIN.max(n / MEMO_FRACTION), orders[0])),
             parent_memo,
         }
     }
