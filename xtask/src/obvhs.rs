@@ -83,7 +83,7 @@ impl ObvhsTracer {
     fn o_ray(ray: &Ray) -> ORay {
         ORay::new(
             glam_obvhs::Vec3A::from_array(ray.origin.to_array()),
-            glam_obvhs::Vec3A::from_array(ray.direction.to_array()),
+            glam_obvhs::Vec3A::from_array(ray.direction().to_array()),
             ray.tmin,
             ray.tmax,
         )

@@ -168,7 +168,7 @@ impl Tracer for TinyTracer {
             return Hit::MISS;
         }
         let tmax = ray.tmax.min(tinybvh_rs::INFINITE);
-        let mut c = CppRay::new(ray.origin.to_array(), ray.direction.to_array());
+        let mut c = CppRay::new(ray.origin.to_array(), ray.direction().to_array());
         let r = &mut c.ray;
         r.hit.t = tmax;
         bvh.intersect(r);

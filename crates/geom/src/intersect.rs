@@ -38,23 +38,46 @@ pub fn far_factors(inv_direction: Vec3A) -> (Vec3A, Vec3A) {
 }
 
 /// Per-ray constants of the watertight triangle test.
+///
+/// The fields are private and derived together from one origin and direction
+/// ([`WatertightRay::new`], [`Ray::watertight`]), so they cannot disagree with each other.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
-    /// Ray origin.
-    pub origin: Vec3A,
-    /// `1 / direction`, component-wise (for the bounds check of [`accept_hit`]).
-    pub inv_direction: Vec3A,
-    /// Index of the direction's largest component (the one mapped to z).
-    pub kz: usize,
-    /// The two other axes, swapped when `direction[kz] < 0` to keep the winding.
-    pub kx: usize,
-    /// See `kx`.
-    pub ky: usize,
-    /// Shear constants: `dir[kx] · (1 / dir[kz])`, `dir[ky] · (1 / dir[kz])`, `1 / dir[kz]`.
-    pub shear: Vec3A,
+    origin: Vec3A,
+    inv_direction: Vec3A,
+    kz: usize,
+    kx: usize,
+    ky: usize,
+    shear: Vec3A,
 }
 
 impl WatertightRay {
+    /// Ray origin.
+    #[inline]
+    pub fn origin(&self) -> Vec3A {
+        self.origin
+    }
+
+    /// `1 / direction`, component-wise (for the bounds check of [`accept_hit`]).
+    #[inline]
+    pub fn inv_direction(&self) -> Vec3A {
+        self.inv_direction
+    }
+
+    /// The axis permutation `(kx, ky, kz)`: `kz` is the index of the direction's largest
+    /// component (the one mapped to z), `kx` and `ky` the two others, swapped when
+    /// `direction[kz] < 0` to keep the winding.
+    #[inline]
+    pub fn axes(&self) -> (usize, usize, usize) {
+        (self.kx, self.ky, self.kz)
+    }
+
+    /// Shear constants: `dir[kx] · (1 / dir[kz])`, `dir[ky] · (1 / dir[kz])`, `1 / dir[kz]`.
+    #[inline]
+    pub fn shear(&self) -> Vec3A {
+        self.shear
+    }
+
     /// Precomputes the axis permutation and the shear for a ray.
     #[inline]
     pub fn new(origin: Vec3A, direction: Vec3A) -> Self {
@@ -419,23 +442,23 @@ mod tests {
     fn slab_test() {
         let b = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
         let r = Ray::new(Vec3A::new(0.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
-        let t = intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).unwrap();
+        let t = intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &b).unwrap();
         assert!((t - 4.0).abs() < 1e-6);
         let r = Ray::new(Vec3A::new(2.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
-        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_none());
+        assert!(intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &b).is_none());
         // Axis-parallel ray lying exactly in a face plane: conservative hit.
         let r = Ray::new(Vec3A::new(1.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
-        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        assert!(intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &b).is_some());
         // ... and in the minimum plane too (0 * inf = NaN must be ignored on both sides).
         let r = Ray::new(Vec3A::new(-1.0, 0.0, -5.0), Vec3A::Z, 0.0, 100.0);
-        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        assert!(intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &b).is_some());
         let r = Ray::new(
             Vec3A::new(0.0, -1.0, -5.0),
             Vec3A::new(-0.0, 0.0, 1.0),
             0.0,
             100.0,
         );
-        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &b).is_some());
+        assert!(intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &b).is_some());
         // A flat box behind the origin is found by a ray with tmin < 0.
         let flat_z = Aabb::new(Vec3A::new(-1.0, -1.0, -3.0), Vec3A::new(1.0, 1.0, -3.0));
         let r = Ray::new(
@@ -444,7 +467,7 @@ mod tests {
             -10.0,
             10.0,
         );
-        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &flat_z).is_some());
+        assert!(intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &flat_z).is_some());
         // Flat box (zero thickness) is still hit.
         let flat = Aabb::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, 1.0, 0.0));
         let r = Ray::new(
@@ -453,6 +476,6 @@ mod tests {
             0.0,
             100.0,
         );
-        assert!(intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &flat).is_some());
+        assert!(intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &flat).is_some());
     }
 }

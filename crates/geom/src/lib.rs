@@ -3,7 +3,8 @@
 //! The lowest crate of the workspace, with no dependency beyond `glam`:
 //!
 //! * [`Aabb`]: axis-aligned boxes on [`glam::Vec3A`] (grow, union, intersection, surface area);
-//! * [`Ray`]: origin, direction, `[tmin, tmax]` interval and a precomputed reciprocal direction;
+//! * [`Ray`]: origin, direction, `[tmin, tmax]` interval and the direction's reciprocal, which
+//!   its constructor and setters keep equal to it (the direction is private);
 //! * [`Triangle`]: three vertices, with bounds, area, centroid and normal;
 //! * [`intersect::intersect_triangle`]: the watertight ray/triangle test of Woop, Benthin and
 //!   Wald (2013);

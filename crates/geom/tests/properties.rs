@@ -115,7 +115,7 @@ proptest! {
             let g = Vec3A::new(grow.0, grow.1, grow.2);
             for bx in [tb, Aabb::new(tb.min - g, tb.max), Aabb::new(tb.min, tb.max + g)] {
                 prop_assert!(
-                    intersect_aabb(o, ray.inv_direction, lower_distance(tmin), cull_distance(h.t), &bx)
+                    intersect_aabb(o, ray.inv_direction(), lower_distance(tmin), cull_distance(h.t), &bx)
                         .is_some(),
                     "hit at t = {} culled by {:?}", h.t, bx
                 );
@@ -163,7 +163,7 @@ proptest! {
         }
         let ray = Ray::new(o, d, tmin, f32::INFINITY);
         prop_assert!(
-            intersect_aabb(o, ray.inv_direction, tmin, f32::INFINITY, &b).is_some(),
+            intersect_aabb(o, ray.inv_direction(), tmin, f32::INFINITY, &b).is_some(),
             "{ray:?} leaves {b:?} at {t_exit} but is rejected from {tmin}"
         );
     }
@@ -183,13 +183,13 @@ proptest! {
         if dir[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        prop_assert_eq!((w.kx, w.ky, w.kz), (kx, ky, kz));
+        prop_assert_eq!(w.axes(), (kx, ky, kz));
         let inv = dir.recip();
         let shear = Vec3A::new(dir[kx] * inv[kz], dir[ky] * inv[kz], inv[kz]);
-        prop_assert_eq!(w.shear.to_array().map(f32::to_bits), shear.to_array().map(f32::to_bits));
+        prop_assert_eq!(w.shear().to_array().map(f32::to_bits), shear.to_array().map(f32::to_bits));
         let r = Ray::new(Vec3A::ONE, dir, 0.0, 1.0).watertight();
-        prop_assert_eq!((r.kx, r.ky, r.kz), (kx, ky, kz));
-        prop_assert_eq!(r.shear.to_array().map(f32::to_bits), shear.to_array().map(f32::to_bits));
+        prop_assert_eq!(r.axes(), (kx, ky, kz));
+        prop_assert_eq!(r.shear().to_array().map(f32::to_bits), shear.to_array().map(f32::to_bits));
     }
 }
 

@@ -132,7 +132,7 @@ fn suspect_class(tris: &[Triangle], ray: &Ray) -> Option<&'static str> {
         if tri.area() == 0.0 || !tri.area().is_finite() {
             return Some("false-hit");
         }
-        let p = ray.origin.as_dvec3() + ray.direction.as_dvec3() * f64::from(h.t);
+        let p = ray.origin.as_dvec3() + ray.direction().as_dvec3() * f64::from(h.t);
         let b = tri.bounds();
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
         // Per axis: a relative 1e-4 of the box's extent and of the point's magnitude.
@@ -146,7 +146,7 @@ fn suspect_class(tris: &[Triangle], ray: &Ray) -> Option<&'static str> {
         let t = f64::from(h.t);
         let near_end = |end: f32| (t - f64::from(end)).abs() <= 1e-6 * f64::from(end).abs();
         let subnormal = ray
-            .inv_direction
+            .inv_direction()
             .to_array()
             .iter()
             .any(|x| *x != 0.0 && x.abs() < f32::MIN_POSITIVE);

@@ -33,7 +33,7 @@ pub fn oracle_for(tris: &[Triangle]) -> Oracle {
 fn oracle_ray(r: &Ray) -> OracleRay {
     OracleRay {
         origin: r.origin.to_array(),
-        dir: r.direction.to_array(),
+        dir: r.direction().to_array(),
         tmin: r.tmin,
         tmax: r.tmax,
     }
@@ -119,7 +119,7 @@ impl fmt::Display for Tally {
 
 fn describe(i: usize, r: &Ray) -> String {
     let o = r.origin.to_array().map(f64::from);
-    let d = r.direction.to_array().map(f64::from);
+    let d = r.direction().to_array().map(f64::from);
     format!(
         "ray {i} [{} {} {} {} {} {} {} {}]",
         o[0], o[1], o[2], r.tmin as f64, d[0], d[1], d[2], r.tmax as f64

@@ -177,7 +177,7 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
         ("origin.x=NaN", |r| {
             Ray::new(
                 Vec3A::new(f32::NAN, r.origin.y, r.origin.z),
-                r.direction,
+                r.direction(),
                 r.tmin,
                 r.tmax,
             )
@@ -185,7 +185,7 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
         ("origin.y=+inf", |r| {
             Ray::new(
                 Vec3A::new(r.origin.x, f32::INFINITY, r.origin.z),
-                r.direction,
+                r.direction(),
                 r.tmin,
                 r.tmax,
             )
@@ -193,18 +193,18 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
         ("origin.z=-inf", |r| {
             Ray::new(
                 Vec3A::new(r.origin.x, r.origin.y, f32::NEG_INFINITY),
-                r.direction,
+                r.direction(),
                 r.tmin,
                 r.tmax,
             )
         }),
         ("origin=NaN", |r| {
-            Ray::new(Vec3A::NAN, r.direction, r.tmin, r.tmax)
+            Ray::new(Vec3A::NAN, r.direction(), r.tmin, r.tmax)
         }),
         ("direction.x=NaN", |r| {
             Ray::new(
                 r.origin,
-                Vec3A::new(f32::NAN, r.direction.y, r.direction.z),
+                Vec3A::new(f32::NAN, r.direction().y, r.direction().z),
                 r.tmin,
                 r.tmax,
             )
@@ -212,7 +212,7 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
         ("direction.y=+inf", |r| {
             Ray::new(
                 r.origin,
-                Vec3A::new(r.direction.x, f32::INFINITY, r.direction.z),
+                Vec3A::new(r.direction().x, f32::INFINITY, r.direction().z),
                 r.tmin,
                 r.tmax,
             )
@@ -220,7 +220,7 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
         ("direction.z=-inf", |r| {
             Ray::new(
                 r.origin,
-                Vec3A::new(r.direction.x, r.direction.y, f32::NEG_INFINITY),
+                Vec3A::new(r.direction().x, r.direction().y, f32::NEG_INFINITY),
                 r.tmin,
                 r.tmax,
             )
@@ -235,35 +235,41 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
             Ray::new(r.origin, Vec3A::splat(-0.0), r.tmin, r.tmax)
         }),
         ("tmin=NaN", |r| {
-            Ray::new(r.origin, r.direction, f32::NAN, r.tmax)
+            Ray::new(r.origin, r.direction(), f32::NAN, r.tmax)
         }),
         ("tmax=NaN", |r| {
-            Ray::new(r.origin, r.direction, r.tmin, f32::NAN)
+            Ray::new(r.origin, r.direction(), r.tmin, f32::NAN)
         }),
         ("tmin=+inf", |r| {
-            Ray::new(r.origin, r.direction, f32::INFINITY, f32::INFINITY)
+            Ray::new(r.origin, r.direction(), f32::INFINITY, f32::INFINITY)
         }),
         ("tmin=-inf", |r| {
-            Ray::new(r.origin, r.direction, f32::NEG_INFINITY, r.tmax)
+            Ray::new(r.origin, r.direction(), f32::NEG_INFINITY, r.tmax)
         }),
         ("tmax=-inf", |r| {
-            Ray::new(r.origin, r.direction, r.tmin, f32::NEG_INFINITY)
+            Ray::new(r.origin, r.direction(), r.tmin, f32::NEG_INFINITY)
         }),
-        ("tmax=-1", |r| Ray::new(r.origin, r.direction, r.tmin, -1.0)),
-        ("tmin>tmax", |r| Ray::new(r.origin, r.direction, 5.0, 1.0)),
-        ("tmin=tmax=1", |r| Ray::new(r.origin, r.direction, 1.0, 1.0)),
-        ("tmin=tmax=0", |r| Ray::new(r.origin, r.direction, 0.0, 0.0)),
+        ("tmax=-1", |r| {
+            Ray::new(r.origin, r.direction(), r.tmin, -1.0)
+        }),
+        ("tmin>tmax", |r| Ray::new(r.origin, r.direction(), 5.0, 1.0)),
+        ("tmin=tmax=1", |r| {
+            Ray::new(r.origin, r.direction(), 1.0, 1.0)
+        }),
+        ("tmin=tmax=0", |r| {
+            Ray::new(r.origin, r.direction(), 0.0, 0.0)
+        }),
         ("tmin=-1e30", |r| {
-            Ray::new(r.origin, r.direction, -1e30, r.tmax)
+            Ray::new(r.origin, r.direction(), -1e30, r.tmax)
         }),
         ("tmax=f32::MAX", |r| {
-            Ray::new(r.origin, r.direction, r.tmin, f32::MAX)
+            Ray::new(r.origin, r.direction(), r.tmin, f32::MAX)
         }),
         ("tmax=MIN_POSITIVE", |r| {
-            Ray::new(r.origin, r.direction, r.tmin, f32::MIN_POSITIVE)
+            Ray::new(r.origin, r.direction(), r.tmin, f32::MIN_POSITIVE)
         }),
         ("direction*1e-40 (denormal)", |r| {
-            Ray::new(r.origin, r.direction * 1e-40, r.tmin, r.tmax)
+            Ray::new(r.origin, r.direction() * 1e-40, r.tmin, r.tmax)
         }),
         ("direction=(1e-45,1e-45,1e-45)", |r| {
             Ray::new(r.origin, Vec3A::splat(1e-45), r.tmin, r.tmax)
@@ -271,21 +277,21 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
         ("direction.x denormal", |r| {
             Ray::new(
                 r.origin,
-                Vec3A::new(1e-40, r.direction.y, r.direction.z),
+                Vec3A::new(1e-40, r.direction().y, r.direction().z),
                 r.tmin,
                 r.tmax,
             )
         }),
         ("direction*1e-30 (tiny)", |r| {
-            Ray::new(r.origin, r.direction * 1e-30, r.tmin, r.tmax)
+            Ray::new(r.origin, r.direction() * 1e-30, r.tmin, r.tmax)
         }),
         ("direction*1e30 (huge)", |r| {
-            Ray::new(r.origin, r.direction * 1e30, r.tmin, r.tmax)
+            Ray::new(r.origin, r.direction() * 1e30, r.tmin, r.tmax)
         }),
         ("direction.y=-0", |r| {
             Ray::new(
                 r.origin,
-                Vec3A::new(r.direction.x, -0.0, r.direction.z),
+                Vec3A::new(r.direction().x, -0.0, r.direction().z),
                 r.tmin,
                 r.tmax,
             )
@@ -297,10 +303,10 @@ pub(crate) fn corruptions() -> Vec<(&'static str, Corruption)> {
             Ray::new(r.origin, Vec3A::new(0.0, 0.0, -1.0), r.tmin, r.tmax)
         }),
         ("origin*1e30 (huge, finite)", |r| {
-            Ray::new(r.origin * 1e30, r.direction, r.tmin, r.tmax)
+            Ray::new(r.origin * 1e30, r.direction(), r.tmin, r.tmax)
         }),
         ("origin=f32::MAX", |r| {
-            Ray::new(Vec3A::splat(f32::MAX), -r.direction, r.tmin, r.tmax)
+            Ray::new(Vec3A::splat(f32::MAX), -r.direction(), r.tmin, r.tmax)
         }),
         ("direction=f32::MAX", |r| {
             Ray::new(

@@ -335,9 +335,9 @@ fn describe_ray(r: &Ray) -> String {
         r.origin.x,
         r.origin.y,
         r.origin.z,
-        r.direction.x,
-        r.direction.y,
-        r.direction.z,
+        r.direction().x,
+        r.direction().y,
+        r.direction().z,
         r.tmin,
         r.tmax
     )

@@ -43,14 +43,14 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
         ("valid", valid.clone()),
         (
             "origin NaN",
-            map(&|r| Ray::new(Vec3A::NAN, r.direction, r.tmin, r.tmax)),
+            map(&|r| Ray::new(Vec3A::NAN, r.direction(), r.tmin, r.tmax)),
         ),
         (
             "direction NaN",
             map(&|r| {
                 Ray::new(
                     r.origin,
-                    Vec3A::new(f32::NAN, r.direction.y, r.direction.z),
+                    Vec3A::new(f32::NAN, r.direction().y, r.direction().z),
                     r.tmin,
                     r.tmax,
                 )
@@ -61,7 +61,7 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
             map(&|r| {
                 Ray::new(
                     r.origin,
-                    Vec3A::new(r.direction.x, f32::INFINITY, r.direction.z),
+                    Vec3A::new(r.direction().x, f32::INFINITY, r.direction().z),
                     r.tmin,
                     r.tmax,
                 )
@@ -73,11 +73,11 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
         ),
         (
             "tmin > tmax",
-            map(&|r| Ray::new(r.origin, r.direction, 2.0, 1.0)),
+            map(&|r| Ray::new(r.origin, r.direction(), 2.0, 1.0)),
         ),
         (
             "tmax NaN",
-            map(&|r| Ray::new(r.origin, r.direction, r.tmin, f32::NAN)),
+            map(&|r| Ray::new(r.origin, r.direction(), r.tmin, f32::NAN)),
         ),
         (
             "half invalid (interleaved)",
@@ -88,25 +88,25 @@ pub fn batches(n: usize) -> Vec<(&'static str, Vec<Ray>)> {
                     if i % 2 == 0 {
                         *r
                     } else {
-                        Ray::new(Vec3A::NAN, r.direction, r.tmin, r.tmax)
+                        Ray::new(Vec3A::NAN, r.direction(), r.tmin, r.tmax)
                     }
                 })
                 .collect(),
         ),
         (
             "direction denormal (invalid: a miss)",
-            map(&|r| Ray::new(r.origin, r.direction * 1e-40, r.tmin, r.tmax)),
+            map(&|r| Ray::new(r.origin, r.direction() * 1e-40, r.tmin, r.tmax)),
         ),
         (
             "direction 1e-30 (valid)",
-            map(&|r| Ray::new(r.origin, r.direction * 1e-30, r.tmin, r.tmax)),
+            map(&|r| Ray::new(r.origin, r.direction() * 1e-30, r.tmin, r.tmax)),
         ),
         (
             "direction -0 components (valid)",
             map(&|r| {
                 Ray::new(
                     r.origin,
-                    Vec3A::new(r.direction.x, -0.0, -0.0),
+                    Vec3A::new(r.direction().x, -0.0, -0.0),
                     r.tmin,
                     r.tmax,
                 )

@@ -70,7 +70,7 @@ fn scene_rays(scene: &sahara_scene::Scene, tris: &[Triangle], bvh: &Bvh) -> (Vec
         let mut n = (tri.v[1] - tri.v[0])
             .cross(tri.v[2] - tri.v[0])
             .normalize_or_zero();
-        if n.dot(ray.direction) > 0.0 {
+        if n.dot(ray.direction()) > 0.0 {
             n = -n;
         }
         let eps = 1e-4 * (1e-3 * diag).max(p.abs().max_element());

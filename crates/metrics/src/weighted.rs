@@ -85,7 +85,7 @@ pub fn segment_node_weights(bvh: &Bvh, rays: &[Ray]) -> Vec<f64> {
             stack.push(0usize);
             while let Some(i) = stack.pop() {
                 let node = &bvh.nodes[i];
-                if intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &node.bounds())
+                if intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &node.bounds())
                     .is_none()
                 {
                     continue;
@@ -150,7 +150,8 @@ pub fn closest_hits(bvh: &Bvh, tris: &[Triangle], rays: &[Ray]) -> Vec<Option<Hi
                 while let Some(i) = stack.pop() {
                     let node = &bvh.nodes[i];
                     let (lo, hi) = (lower_distance(r.tmin), cull_distance(tmax));
-                    if intersect_aabb(r.origin, r.inv_direction, lo, hi, &node.bounds()).is_none() {
+                    if intersect_aabb(r.origin, r.inv_direction(), lo, hi, &node.bounds()).is_none()
+                    {
                         continue;
                     }
                     if node.is_leaf() {
@@ -368,7 +369,8 @@ impl CameraGrid {
         for y in y0..=y1 {
             for x in x0..=x1 {
                 let ray = self.ray(x as u32, y as u32);
-                if intersect_aabb(ray.origin, ray.inv_direction, 0.0, f32::INFINITY, b).is_some() {
+                if intersect_aabb(ray.origin, ray.inv_direction(), 0.0, f32::INFINITY, b).is_some()
+                {
                     hits += 1;
                 }
             }
@@ -474,7 +476,7 @@ impl SegmentSet {
             .filter(|r| r.is_valid())
             .filter_map(|r| {
                 let tmin = r.tmin.max(0.0);
-                let t = slab(r.origin, r.inv_direction, tmin, r.tmax, bounds)?;
+                let t = slab(r.origin, r.inv_direction(), tmin, r.tmax, bounds)?;
                 let (a, b) = (r.at(t.0), r.at(t.1));
                 let seg = Aabb::new(a.min(b), a.max(b));
                 Some((0, *r, t.0, t.1, seg))
@@ -496,7 +498,7 @@ impl SegmentSet {
             for (_, r, t0, t1, _) in chunk {
                 for a in 0..3 {
                     out.origin[a].push(r.origin[a]);
-                    out.inv[a].push(r.inv_direction[a]);
+                    out.inv[a].push(r.inv_direction()[a]);
                 }
                 out.t0.push(*t0);
                 out.t1.push(*t1);

@@ -69,7 +69,7 @@ fn box_weight_counts_exactly_the_grid_rays_that_hit() {
             .iter()
             .filter(|r| {
                 !b.is_empty()
-                    && intersect_aabb(r.origin, r.inv_direction, 0.0, f32::INFINITY, b).is_some()
+                    && intersect_aabb(r.origin, r.inv_direction(), 0.0, f32::INFINITY, b).is_some()
             })
             .count() as f64
             / rays.len() as f64;
@@ -208,7 +208,7 @@ fn segment_set_counts_like_the_slab_test_and_the_tree_walk() {
         let brute = rays
             .iter()
             .filter(|r| {
-                intersect_aabb(r.origin, r.inv_direction, r.tmin, r.tmax, &n.bounds()).is_some()
+                intersect_aabb(r.origin, r.inv_direction(), r.tmin, r.tmax, &n.bounds()).is_some()
             })
             .count();
         assert_eq!((*w * rays.len() as f64).round() as usize, brute);

@@ -80,7 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .zip(&hits)
         .filter_map(|(ray, hit)| {
             let hit = hit.as_ref()?;
-            let p = ray.origin + ray.direction * hit.t;
+            let p = ray.origin + ray.direction() * hit.t;
             Some(Ray::new(p, light, 1e-3, f32::INFINITY))
         })
         .collect();
@@ -92,7 +92,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some(hit) => {
                 let tri = accel.triangles()[hit.prim as usize];
                 let mut n = (tri.v[1] - tri.v[0]).cross(tri.v[2] - tri.v[0]).normalize();
-                if n.dot(ray.direction) > 0.0 {
+                if n.dot(ray.direction()) > 0.0 {
                     n = -n;
                 }
                 let lit = if occluded.next() == Some(true) {

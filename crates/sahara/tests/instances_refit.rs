@@ -19,7 +19,7 @@ fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Pcg32::new(seed, 9);
     let mut v = segments_in(b, n, &mut rng);
     for r in v.iter_mut().skip(1).step_by(2) {
-        *r = Ray::new(r.origin, r.direction, 0.0, f32::INFINITY);
+        *r = Ray::new(r.origin, r.direction(), 0.0, f32::INFINITY);
     }
     v
 }

@@ -106,12 +106,12 @@ mod tests {
         let cam = Camera::new(Vec3A::ZERO, Vec3A::NEG_Z, Vec3A::Y, 90.0);
         // Top-left pixel of a 2x2 image: up and left of the view direction.
         let r = cam.primary_ray(0, 0, 2, 2);
-        assert!(r.direction.x < 0.0 && r.direction.y > 0.0 && r.direction.z < 0.0);
+        assert!(r.direction().x < 0.0 && r.direction().y > 0.0 && r.direction().z < 0.0);
         let r = cam.primary_ray(1, 1, 2, 2);
-        assert!(r.direction.x > 0.0 && r.direction.y < 0.0);
+        assert!(r.direction().x > 0.0 && r.direction().y < 0.0);
         // 90° vertical fov: the top edge of the image is at 45°.
         let top = cam.primary_ray(0, 0, 1, 1_000_000);
-        assert!((top.direction.y / -top.direction.z - 1.0).abs() < 1e-3);
+        assert!((top.direction().y / -top.direction().z - 1.0).abs() < 1e-3);
     }
 
     #[test]
@@ -122,7 +122,7 @@ mod tests {
         ] {
             let r = cam.primary_ray(3, 4, 8, 8);
             assert!(r.is_valid(), "{cam:?} -> {r:?}");
-            assert!((r.direction.length() - 1.0).abs() < 1e-6);
+            assert!((r.direction().length() - 1.0).abs() < 1e-6);
         }
     }
 }

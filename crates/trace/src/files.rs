@@ -36,7 +36,7 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
     let mut out = Vec::with_capacity(rays.len() * RAY_RECORD_BYTES);
     for r in rays {
         let o = r.origin;
-        let d = r.direction;
+        let d = r.direction();
         for x in [o.x, o.y, o.z, r.tmin, d.x, d.y, d.z, r.tmax] {
             out.extend_from_slice(&x.to_le_bytes());
         }

@@ -279,7 +279,7 @@ fn is_good(tris: &[Triangle], hull: &[bool], ray: &Ray, hit: &Hit, interior: boo
         return true;
     }
     let normal = (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]);
-    !hull[hit.prim as usize] && normal.dot(ray.direction) < 0.0
+    !hull[hit.prim as usize] && normal.dot(ray.direction()) < 0.0
 }
 
 /// Whether `p` is in the closed box `b`.

@@ -272,7 +272,7 @@ impl RaySet {
     ///
     /// * `p = tri.point(u, v)`, the hit point from its barycentrics;
     /// * `n` = the unit geometric normal of the triangle, flipped to face the incoming ray
-    ///   (`dot(n, ray.direction) <= 0`); if the triangle is too small for a normal, `-direction`;
+    ///   (`dot(n, ray.direction()) <= 0`); if the triangle is too small for a normal, `-direction`;
     /// * origin `p + n * offset_epsilon(p, diagonal)` ([`offset_epsilon`]), where `diagonal`
     ///   is that of [`scene_bounds`]`(tris)`;
     /// * direction: [`cosine_hemisphere`]`(n, r1, r2)` with `r1`, `r2` the first two
@@ -313,8 +313,8 @@ impl RaySet {
                 let p = tri.point(hit.u, hit.v);
                 let mut n = tri.normal();
                 if n == Vec3A::ZERO || !n.is_finite() {
-                    n = -ray.direction.normalize_or_zero();
-                } else if n.dot(ray.direction) > 0.0 {
+                    n = -ray.direction().normalize_or_zero();
+                } else if n.dot(ray.direction()) > 0.0 {
                     n = -n;
                 }
                 let origin = p + n * offset_epsilon(p, diag);

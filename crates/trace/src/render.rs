@@ -118,7 +118,7 @@ pub fn shade(
     for ((&p, ray), hit) in pixel.iter().zip(rays).zip(hits) {
         let rgb = match (hit.is_hit(), tris.get(hit.prim as usize)) {
             (true, Some(tri)) => {
-                let cos = tri.normal().dot(ray.direction.normalize_or_zero()).abs();
+                let cos = tri.normal().dot(ray.direction().normalize_or_zero()).abs();
                 let k = 0.15 + 0.85 * cos;
                 let base = match shading {
                     Shading::Grey => [0.8; 3],

@@ -137,16 +137,16 @@ fn centre_pixel_points_at_target() {
             let to_target = (cam.target - cam.eye).normalize();
             assert_eq!(r.origin, cam.eye);
             assert_eq!((r.tmin, r.tmax), (0.0, f32::INFINITY));
-            assert!((r.direction.length() - 1.0).abs() < 1e-6);
+            assert!((r.direction().length() - 1.0).abs() < 1e-6);
             assert!(
-                r.direction.dot(to_target) > 1.0 - 1e-6,
+                r.direction().dot(to_target) > 1.0 - 1e-6,
                 "{cam:?} {w}x{h}: {:?} vs {to_target:?}",
-                r.direction
+                r.direction()
             );
         }
         // The image's up is the camera's up side: the top row looks more "up" than the bottom.
-        let top = cam.primary_ray(50, 0, 101, 75).direction;
-        let bottom = cam.primary_ray(50, 74, 101, 75).direction;
+        let top = cam.primary_ray(50, 0, 101, 75).direction();
+        let bottom = cam.primary_ray(50, 74, 101, 75).direction();
         assert!(top.dot(cam.up) > bottom.dot(cam.up));
     }
 }
@@ -191,12 +191,12 @@ fn diffuse_rays_leave_the_surface_into_the_hemisphere_of_the_facing_normal() {
             let hit = hits[px as usize];
             let tri = &tris[hit.prim as usize];
             let mut n = tri.normal();
-            if n.dot(prim_ray.direction) > 0.0 {
+            if n.dot(prim_ray.direction()) > 0.0 {
                 n = -n;
             }
             assert!(ray.is_valid());
-            assert!((ray.direction.length() - 1.0).abs() < 1e-5);
-            assert!(ray.direction.dot(n) > 0.0, "ray {i} below its surface");
+            assert!((ray.direction().length() - 1.0).abs() < 1e-5);
+            assert!(ray.direction().dot(n) > 0.0, "ray {i} below its surface");
             // The origin is on the side the primary ray came from, just off the hit point.
             let p = tri.point(hit.u, hit.v);
             let off = (ray.origin - p).dot(n);
@@ -250,7 +250,7 @@ fn ray_sets_are_deterministic_across_thread_counts_and_seeded() {
         .rays
         .iter()
         .zip(&a.rays)
-        .any(|(x, y)| x.direction != y.direction));
+        .any(|(x, y)| x.direction() != y.direction()));
     // Each ray depends only on (seed, pixel): a generator for any pixel reproduces it.
     let i = d.len() / 3;
     let mut rng = ray_rng(5, d.pixel[i], RayKind::Diffuse);
@@ -260,13 +260,13 @@ fn ray_sets_are_deterministic_across_thread_counts_and_seeded() {
     )[0];
     let prim_dir = camera()
         .primary_ray(d.pixel[i] % W, d.pixel[i] / W, W, H)
-        .direction;
+        .direction();
     let mut n = tris[hit.prim as usize].normal();
     if n.dot(prim_dir) > 0.0 {
         n = -n;
     }
     let (r1, r2) = (rng.next_f32(), rng.next_f32());
-    assert_eq!(d.rays[i].direction, cosine_hemisphere(n, r1, r2));
+    assert_eq!(d.rays[i].direction(), cosine_hemisphere(n, r1, r2));
 }
 
 // ---------------------------------------------------------------------------------------------

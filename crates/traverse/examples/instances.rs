@@ -199,7 +199,7 @@ pub fn run(n: usize, rays_side: u32) -> Report {
         let same = match got {
             None => !f.is_hit(),
             Some(h) => {
-                let len = ray.direction.length();
+                let len = ray.direction().length();
                 let scale = ray.origin.length().max(ray.at(f.t.min(h.t)).length());
                 let rel = (h.t - f.t).abs() * len / scale.max(f32::MIN_POSITIVE);
                 let ok = f.is_hit()

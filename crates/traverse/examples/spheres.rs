@@ -32,8 +32,8 @@ impl Sphere {
     /// the callbacks must.
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, Vec3A)> {
         let oc = ray.origin - self.c;
-        let a = ray.direction.dot(ray.direction);
-        let b = oc.dot(ray.direction);
+        let a = ray.direction().dot(ray.direction());
+        let b = oc.dot(ray.direction());
         let k = oc.dot(oc) - self.r * self.r;
         let disc = b * b - a * k;
         // `disc < 0` or NaN: no real root.

@@ -67,7 +67,7 @@
 //! let bvh = Bvh { nodes: vec![Node::leaf(&boxes[0], 0, 1)], prim_indices: vec![0], spatial_splits: false };
 //! let sphere = |ray: &Ray, _prim: u32, tmin: f32, tmax: f32| {
 //!     let oc = ray.origin - c;
-//!     let (a, b, k) = (ray.direction.dot(ray.direction), oc.dot(ray.direction), oc.dot(oc) - r * r);
+//!     let (a, b, k) = (ray.direction().dot(ray.direction()), oc.dot(ray.direction()), oc.dot(oc) - r * r);
 //!     let disc = b * b - a * k;
 //!     let t = (-b - disc.max(0.0).sqrt()) / a;
 //!     (disc >= 0.0 && t >= tmin && t <= tmax).then_some((t, ()))
@@ -101,7 +101,7 @@ pub struct PrimHit<D> {
 /// the far-plane rounding of the ray (`tmin < 0` rays also widen negative far distances).
 #[inline]
 pub fn primitive_span(ray: &Ray, bounds: &Aabb) -> (f32, f32) {
-    slab_span(ray.origin, ray.inv_direction, ray.tmin < 0.0, bounds)
+    slab_span(ray.origin, ray.inv_direction(), ray.tmin < 0.0, bounds)
 }
 
 /// The hit rule of user primitives (see the [module documentation](self)): the callback's
@@ -190,7 +190,7 @@ fn bvh2_closest<D, S: TraversalStats>(
     if bvh.nodes.is_empty() || !ray.is_valid() {
         return None;
     }
-    let (o, inv) = (ray.origin, ray.inv_direction);
+    let (o, inv) = (ray.origin, ray.inv_direction());
     let box_tmin = lower_distance(ray.tmin);
     let nodes = &bvh.nodes;
     let best_t = |b: &Option<PrimHit<D>>| b.as_ref().map_or(f32::INFINITY, |h| h.t);
@@ -263,7 +263,7 @@ fn bvh2_any<S: TraversalStats>(
     if bvh.nodes.is_empty() || !ray.is_valid() {
         return false;
     }
-    let (o, inv) = (ray.origin, ray.inv_direction);
+    let (o, inv) = (ray.origin, ray.inv_direction());
     let (box_tmin, box_tmax) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
     let mut stack = NodeStack::new();
     stack.push(0);

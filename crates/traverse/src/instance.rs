@@ -269,7 +269,7 @@ impl<B: BottomLevel> InstanceSet<B> {
         let inv = &self.inverse[instance as usize];
         Ray::new(
             inv.transform_point3a(ray.origin),
-            inv.transform_vector3a(ray.direction),
+            inv.transform_vector3a(ray.direction()),
             ray.tmin,
             tmax,
         )
@@ -309,7 +309,7 @@ impl<B: BottomLevel> InstanceSet<B> {
     fn instance_any(&self, ray: &Ray, i: u32) -> bool {
         let b = &self.boxes[i as usize];
         let (lo, hi) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
-        intersect_aabb(ray.origin, ray.inv_direction, lo, hi, b).is_some() && {
+        intersect_aabb(ray.origin, ray.inv_direction(), lo, hi, b).is_some() && {
             let blas = &self.blases[self.instances[i as usize].blas as usize];
             blas.any_hit(&self.object_ray(i, ray, ray.tmax))
         }
@@ -344,7 +344,7 @@ impl<B: BottomLevel> InstanceSet<B> {
         (0..self.instances.len() as u32).any(|i| {
             intersect_aabb(
                 ray.origin,
-                ray.inv_direction,
+                ray.inv_direction(),
                 lo,
                 hi,
                 &self.boxes[i as usize],

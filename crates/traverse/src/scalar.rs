@@ -23,7 +23,7 @@ pub fn closest_hit<S: TraversalStats>(
     if bvh.nodes.is_empty() || !ray.is_valid() {
         return best;
     }
-    let (o, inv) = (ray.origin, ray.inv_direction);
+    let (o, inv) = (ray.origin, ray.inv_direction());
     let box_tmin = lower_distance(ray.tmin);
     let w = ray.watertight();
     let nodes = &bvh.nodes;
@@ -106,7 +106,7 @@ pub fn any_hit<S: TraversalStats>(bvh: &Bvh, tris: &[Triangle], ray: &Ray, stats
     if bvh.nodes.is_empty() || !ray.is_valid() {
         return false;
     }
-    let (o, inv) = (ray.origin, ray.inv_direction);
+    let (o, inv) = (ray.origin, ray.inv_direction());
     let (box_tmin, box_tmax) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
     let w = ray.watertight();
     let mut stack = NodeStack::new();

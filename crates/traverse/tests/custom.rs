@@ -120,7 +120,7 @@ fn a_callback_that_lies_still_equals_brute_force() {
     let rays = rays(&bounds, 1_500, 9);
     let lie = |ray: &Ray, p: u32, tmin: f32, tmax: f32| {
         let h = sahara_geom::intersect::intersect_ray_triangle(
-            &Ray::new(ray.origin, ray.direction, ray.tmin, ray.tmax),
+            &Ray::new(ray.origin, ray.direction(), ray.tmin, ray.tmax),
             &tris[p as usize],
         )?;
         let t = h.t + 0.25 * (p % 3) as f32;

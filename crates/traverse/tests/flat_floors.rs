@@ -86,7 +86,7 @@ fn the_f32_inputs_are_the_reported_ones() {
     // The literals above are the shortest decimals of the reported f32 values.
     let r = &rays()[0].0;
     assert_eq!(r.origin.x as f64, 1088.7493896484375);
-    assert_eq!(r.direction.z as f64, 0.09524916857481003);
+    assert_eq!(r.direction().z as f64, 0.09524916857481003);
     assert_eq!(rays()[2].0.tmax as f64, 749.4059448242188);
 }
 
@@ -139,7 +139,7 @@ fn moved_to_the_origin_it_still_hits() {
         .map(|t| Triangle::new(t.v[0] - off, t.v[1] - off, t.v[2] - off))
         .collect();
     let (ray, _, _) = rays()[0];
-    let ray = Ray::new(ray.origin - off, ray.direction, ray.tmin, ray.tmax);
+    let ray = Ray::new(ray.origin - off, ray.direction(), ray.tmin, ray.tmax);
     let h = brute::closest_hit(&tris, &ray);
     assert_eq!(h.prim, 0, "moved triangle 0 must still be hit: {h:?}");
 }

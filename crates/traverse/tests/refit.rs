@@ -189,7 +189,7 @@ fn refit_user_primitive_boxes() {
     let cube = |ray: &Ray, p: u32, tmin: f32, tmax: f32| {
         let t = sahara_geom::intersect::intersect_aabb(
             ray.origin,
-            ray.inv_direction,
+            ray.inv_direction(),
             tmin,
             tmax,
             &b1[p as usize],

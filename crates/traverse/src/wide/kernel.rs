@@ -51,8 +51,8 @@ pub(crate) struct RayData {
 impl RayData {
     #[inline(always)]
     pub(crate) fn new(ray: &Ray) -> Self {
-        let inv = ray.inv_direction.to_array();
-        let (far_pos, far_neg) = far_factors(ray.inv_direction);
+        let inv = ray.inv_direction().to_array();
+        let (far_pos, far_neg) = far_factors(ray.inv_direction());
         let mut near_row = [0; 3];
         let mut far_row = [0; 3];
         let mut octant = 0;
@@ -76,18 +76,13 @@ impl RayData {
             box_tmin: lower_distance(ray.tmin),
             near_row,
             far_row,
-            w: WatertightRay {
-                origin: ray.origin,
-                inv_direction: ray.inv_direction,
-                kz: 2,
-                kx: 0,
-                ky: 1,
-                shear: sahara_geom::Vec3A::ZERO,
-            },
+            // A placeholder with the ray's origin and reciprocal (the backends read those
+            // before `finish`); the axes and shear are `finish`'s, for rays that enter the root.
+            w: WatertightRay::with_inverse(ray.origin, sahara_geom::Vec3A::Z, ray.inv_direction()),
             order_q,
             order_xor,
             #[cfg(feature = "inexact-bench")]
-            dir: ray.direction.to_array(),
+            dir: ray.direction().to_array(),
         }
     }
 
@@ -477,7 +472,7 @@ fn scalar_lane_occluded(p: &TriPacket, l: usize, rd: &RayData) -> bool {
 fn enters_root<const W: usize>(bvh: &WideBvh<W>, ray: &Ray, rd: &RayData, tfar: f32) -> bool {
     sahara_geom::intersect::intersect_aabb(
         ray.origin,
-        ray.inv_direction,
+        ray.inv_direction(),
         rd.box_tmin,
         tfar,
         &bvh.root_bounds,

@@ -68,23 +68,23 @@ unsafe fn sse_ray<const W: usize, const SPLAT: bool>(rd: &RayData) -> SseRay {
     // SAFETY (whole function): SSE2 is part of x86-64.
     unsafe {
         let w = &rd.w;
-        let (kx, ky, kz) = (w.kx, w.ky, w.kz);
+        let (kx, ky, kz) = w.axes();
         // Indexing arrays, not `Vec3A` (whose `Index` is a branch per component: the dominant
         // axis of incoherent rays is unpredictable).
-        let wo = w.origin.to_array();
+        let wo = w.origin().to_array();
         // `w.origin` and `w.inv_direction` are the ray's origin and reciprocal direction (also
         // before `RayData::finish`), and `far_factors` gives `rd.inv_far` / `rd.inv_far_neg`
         // bit for bit (the same multiplications).
-        let (far_pos, far_neg) = sahara_geom::intersect::far_factors(w.inv_direction);
+        let (far_pos, far_neg) = sahara_geom::intersect::far_factors(w.inv_direction());
         let from_memory = |x: [f32; 3]| x.map(|c| _mm_set1_ps(c));
         SseRay {
             origin: if SPLAT {
-                splat3(w.origin)
+                splat3(w.origin())
             } else {
                 from_memory(rd.origin)
             },
             inv: if SPLAT {
-                splat3(w.inv_direction)
+                splat3(w.inv_direction())
             } else {
                 from_memory(rd.inv)
             },
@@ -109,9 +109,9 @@ unsafe fn sse_ray<const W: usize, const SPLAT: bool>(rd: &RayData) -> SseRay {
                 _mm_set1_ps(wo[kz]),
             ],
             w_shear: if SPLAT {
-                splat3(w.shear)
+                splat3(w.shear())
             } else {
-                from_memory(w.shear.to_array())
+                from_memory(w.shear().to_array())
             },
             w_axis: [kx, ky, kz],
             w_far: _mm_set1_ps(rd.inv_far[kz]),
