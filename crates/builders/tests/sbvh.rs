@@ -74,6 +74,7 @@ fn configs() -> Vec<SbvhConfig> {
             spatial_bins: 0,
             ..SbvhConfig::DEFAULT
         },
+        SbvhConfig::FAST_GATED,
     ]
 }
 
@@ -192,6 +193,47 @@ fn huge_and_tiny_triangles_mixed() {
     }
 }
 
+/// The overlap gate (`overlap_ratio`) searches spatial splits at fewer nodes: on a scene where
+/// spatial splits happen, every ratio gives a valid tree, a ratio of 0 is the ungated builder
+/// bit for bit, 0.2 duplicates strictly fewer references than no gate, and a ratio no overlap
+/// can reach (an overlap is at most either side's area, so at most half their sum) leaves no
+/// spatial split at all.
+#[test]
+fn overlap_gate_searches_spatial_splits_at_fewer_nodes() {
+    let mut tris = needs_spatial();
+    tris.extend(sized_soup(3000, 91, 8.0));
+    let refs = |ratio: f32| {
+        let bvh = build(
+            &tris,
+            SbvhConfig {
+                overlap_ratio: ratio,
+                ..SbvhConfig::FAST
+            },
+        );
+        (bvh.fingerprint(), bvh.prim_indices.len())
+    };
+    let (ungated_fp, ungated) = refs(0.0);
+    let fast = build(&tris, SbvhConfig::FAST);
+    assert_eq!(
+        ungated_fp,
+        fast.fingerprint(),
+        "ratio 0 must not change the tree"
+    );
+    let (_, gated) = refs(SbvhConfig::FAST_GATED.overlap_ratio);
+    let (_, closed) = refs(0.6);
+    assert!(ungated > tris.len(), "the scene must have spatial splits");
+    assert!(
+        gated < ungated,
+        "the gate must cut duplication: {gated} refs gated, {ungated} ungated"
+    );
+    assert!(gated > tris.len(), "0.2 still lets the diagonals be split");
+    assert_eq!(
+        closed,
+        tris.len(),
+        "no overlap reaches 0.6 of the sides' areas"
+    );
+}
+
 #[test]
 fn invalid_config_is_rejected() {
     let tris = sized_soup(10, 1, 1.0);
@@ -207,6 +249,18 @@ fn invalid_config_is_rejected() {
         },
         SbvhConfig {
             duplication_budget: -1.0,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            overlap_ratio: f32::NAN,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            overlap_ratio: -0.5,
+            ..SbvhConfig::DEFAULT
+        },
+        SbvhConfig {
+            overlap_ratio: f32::INFINITY,
             ..SbvhConfig::DEFAULT
         },
         SbvhConfig {

@@ -117,18 +117,28 @@ impl<'a> Ctx<'a> {
     }
 }
 
-/// True when the SBVH rule searches spatial splits at this node, given its best object split.
+/// True when the SBVH rule searches spatial splits at this node, given its best object split:
+/// its sides overlap by more than `alpha` times the root's area (Stich et al.) and, when
+/// [`SbvhConfig::overlap_ratio`] is set, by at least that fraction of the sides' own areas
+/// (Embree's gate; the areas are `f64`, so no finite box overflows them).
 pub(crate) fn spatial_allowed(
     ctx: &Ctx,
     best_object: &ObjectCand,
     depth: usize,
     budget: usize,
 ) -> bool {
-    ctx.clipper.is_some()
-        && ctx.cfg.spatial_bins >= 2
-        && depth < ctx.cfg.max_spatial_depth
-        && budget > 0
-        && best_object.overlap() > ctx.cfg.alpha as f64 * ctx.root_area
+    if ctx.clipper.is_none()
+        || ctx.cfg.spatial_bins < 2
+        || depth >= ctx.cfg.max_spatial_depth
+        || budget == 0
+    {
+        return false;
+    }
+    let overlap = best_object.overlap();
+    let ratio = ctx.cfg.overlap_ratio as f64;
+    overlap > ctx.cfg.alpha as f64 * ctx.root_area
+        && (ratio <= 0.0
+            || overlap >= ratio * (half_area(&best_object.left) + half_area(&best_object.right)))
 }
 
 /// What the SBVH rule does with a node.
