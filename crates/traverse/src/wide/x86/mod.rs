@@ -1,0 +1,429 @@
+//! SSE2, AVX2 and AVX-512 backends (x86-64), one file per backend (`sse2.rs`, `avx2.rs`,
+//! `avx512.rs`) and one per triangle test (`watertight.rs`), on the ray constants and entry
+//! points of this file.
+//!
+//! The box tests reproduce [`RayData::slab`] lane by lane: `_mm_max_ps(a, b)` and
+//! `_mm_min_ps(a, b)` return `b` when either operand is NaN, so the running near / far
+//! distance (never NaN) is always the second operand and a NaN slab distance is ignored.
+//! The triangle test reproduces `sahara_geom::intersect::intersect_triangle` with the same
+//! operations in the same order (Rust never contracts a multiply and an add into an FMA), and
+//! reports lanes with an edge function exactly zero for the exact scalar fallback.
+
+use super::kernel::{self, FixedStack, PacketHits, RayData, VecStack, FIXED_STACK};
+use super::{TriPacket, WideBvh, WideNode};
+use crate::{Hit, TraversalStats};
+use sahara_geom::Ray;
+use std::arch::x86_64::*;
+
+/// The ray's constants for the 4-wide box and triangle tests.
+#[derive(Clone, Copy)]
+pub(crate) struct SseRay {
+    origin: [__m128; 3],
+    inv: [__m128; 3],
+    /// The reciprocal direction scaled for far planes (positive and negative distances).
+    inv_far: [__m128; 3],
+    inv_far_neg: [__m128; 3],
+    /// `max(tmin, -f32::MAX)` and `min(tmax, f32::MAX)`: the range check of [`accept4`] with
+    /// its finiteness check folded in.
+    t_lo: __m128,
+    t_hi: __m128,
+    box_tmin: __m128,
+    /// Offsets (in floats, rows times `W`) of the near and far planes of each axis.
+    near_off: [usize; 3],
+    far_off: [usize; 3],
+    /// Watertight test: origin and shear permuted to `(kx, ky, kz)`, and the offsets of the
+    /// permuted axes in a packet's vertex rows.
+    w_origin: [__m128; 3],
+    w_shear: [__m128; 3],
+    w_axis: [usize; 3],
+    /// The far-plane factors of the dominant axis (`inv_far[kz]`, `inv_far_neg[kz]`), for
+    /// [`dominant_slab4`].
+    w_far: __m128,
+    w_far_neg: __m128,
+    /// The direction, for the benchmark-only Möller–Trumbore test ([`inexact`]).
+    #[cfg(feature = "inexact-bench")]
+    dir: [__m128; 3],
+}
+
+/// The three components of `v`, each broadcast to the four lanes (one shuffle each; with SSE2
+/// a broadcast from memory takes a load and a shuffle).
+#[inline(always)]
+unsafe fn splat3(v: sahara_geom::Vec3A) -> [__m128; 3] {
+    // SAFETY (whole function): SSE2 is part of x86-64.
+    unsafe {
+        let v: __m128 = v.into();
+        [
+            _mm_shuffle_ps::<0x00>(v, v),
+            _mm_shuffle_ps::<0x55>(v, v),
+            _mm_shuffle_ps::<0xaa>(v, v),
+        ]
+    }
+}
+
+/// The ray's constants. `SPLAT`: broadcast the origin, the reciprocal direction and the shear
+/// from vector registers, one shuffle each (cheaper for SSE2, where a broadcast from memory is a
+/// load and a shuffle); else from memory (one `vbroadcastss` with AVX, measured cheaper there).
+#[inline(always)]
+unsafe fn sse_ray<const W: usize, const SPLAT: bool>(rd: &RayData) -> SseRay {
+    // SAFETY (whole function): SSE2 is part of x86-64.
+    unsafe {
+        let w = &rd.w;
+        let (kx, ky, kz) = w.axes();
+        // Indexing arrays, not `Vec3A` (whose `Index` is a branch per component: the dominant
+        // axis of incoherent rays is unpredictable).
+        let wo = w.origin().to_array();
+        // `w.origin` and `w.inv_direction` are the ray's origin and reciprocal direction (also
+        // before `RayData::finish`), and `far_factors` gives `rd.inv_far` / `rd.inv_far_neg`
+        // bit for bit (the same multiplications).
+        let (far_pos, far_neg) = sahara_geom::intersect::far_factors(w.inv_direction());
+        let from_memory = |x: [f32; 3]| x.map(|c| _mm_set1_ps(c));
+        SseRay {
+            origin: if SPLAT {
+                splat3(w.origin())
+            } else {
+                from_memory(rd.origin)
+            },
+            inv: if SPLAT {
+                splat3(w.inv_direction())
+            } else {
+                from_memory(rd.inv)
+            },
+            inv_far: if SPLAT {
+                splat3(far_pos)
+            } else {
+                from_memory(rd.inv_far)
+            },
+            inv_far_neg: if SPLAT {
+                splat3(far_neg)
+            } else {
+                from_memory(rd.inv_far_neg)
+            },
+            t_lo: _mm_set1_ps(rd.tmin.max(-f32::MAX)),
+            t_hi: _mm_set1_ps(rd.tmax.min(f32::MAX)),
+            box_tmin: _mm_set1_ps(rd.box_tmin),
+            near_off: rd.near_row.map(|r| r * W),
+            far_off: rd.far_row.map(|r| r * W),
+            w_origin: [
+                _mm_set1_ps(wo[kx]),
+                _mm_set1_ps(wo[ky]),
+                _mm_set1_ps(wo[kz]),
+            ],
+            w_shear: if SPLAT {
+                splat3(w.shear())
+            } else {
+                from_memory(w.shear().to_array())
+            },
+            w_axis: [kx, ky, kz],
+            w_far: _mm_set1_ps(rd.inv_far[kz]),
+            w_far_neg: _mm_set1_ps(rd.inv_far_neg[kz]),
+            #[cfg(feature = "inexact-bench")]
+            dir: rd.dir.map(|x| _mm_set1_ps(x)),
+        }
+    }
+}
+
+/// The members every x86 backend shares: the ray's constants in SSE registers and the 4-wide
+/// packet tests. They are not `target_feature` functions, so they are always inlined into the
+/// backend's entry points, which compile them with their own features (VEX encoding under AVX2,
+/// EVEX and 32 registers under AVX-512). The 256-bit constants of the 8-wide box test are
+/// broadcast in `intersect_node`, which is inlined into the traversal loop, so they are
+/// hoisted out of it (building them in `prepare` would need a `target_feature` function that
+/// is not inlined).
+macro_rules! sse_ray_and_packets {
+    ($splat:expr) => {
+        type Ray = SseRay;
+
+        #[inline(always)]
+        unsafe fn prepare(rd: &RayData) -> SseRay {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { super::sse_ray::<W, { $splat }>(rd) }
+        }
+
+        #[inline(always)]
+        unsafe fn intersect_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+            tfar: f32,
+            out: &mut PacketHits,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { super::packet_closest::<NEG>(p, r, tfar, out) }
+        }
+
+        #[inline(always)]
+        unsafe fn occlude_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { super::packet_occluded::<NEG>(p, r) }
+        }
+    };
+}
+
+mod avx2;
+mod avx512;
+mod sse2;
+mod watertight;
+
+pub(crate) use avx2::Avx2;
+pub(crate) use avx512::Avx512;
+pub(crate) use sse2::Sse;
+use watertight::{packet_closest, packet_occluded};
+
+/// Generates the entry points of a backend: a fast path (inline stack, `tmin >= 0`) and an
+/// out-of-line path for deep trees and rays with `tmin < 0`. The entry points are `unsafe`:
+/// the caller guarantees the backend's CPU features.
+macro_rules! entry_points {
+    ($kernel:ty, [$($feat:tt)*], $closest:ident, $any:ident, $closest_slow:ident, $any_slow:ident) => {
+        $($feat)*
+        pub(crate) unsafe fn $closest<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> Hit {
+            if bvh.max_stack > FIXED_STACK || ray.tmin < 0.0 {
+                // SAFETY: the caller guarantees the CPU features.
+                #[allow(unused_unsafe)]
+                return unsafe { $closest_slow(bvh, ray, stats) };
+            }
+            // SAFETY: the caller guarantees the CPU features; the stack bound fits.
+            #[allow(unused_unsafe)]
+            unsafe {
+                kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new(&mut FixedStack::buffer()))
+            }
+        }
+
+        $($feat)*
+        pub(crate) unsafe fn $any<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> bool {
+            if bvh.max_stack > FIXED_STACK || ray.tmin < 0.0 {
+                // SAFETY: the caller guarantees the CPU features.
+                #[allow(unused_unsafe)]
+                return unsafe { $any_slow(bvh, ray, stats) };
+            }
+            // SAFETY: the caller guarantees the CPU features; the stack bound fits.
+            #[allow(unused_unsafe)]
+            unsafe {
+                kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, &mut FixedStack::new(&mut FixedStack::buffer()))
+            }
+        }
+
+        #[inline(never)]
+        $($feat)*
+        unsafe fn $closest_slow<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> Hit {
+            let neg = ray.tmin < 0.0;
+            // SAFETY: the caller guarantees the CPU features; `FixedStack` only when the
+            // bound fits.
+            #[allow(unused_unsafe)]
+            unsafe {
+                if bvh.max_stack <= FIXED_STACK {
+                    let mut buf = FixedStack::buffer();
+                    let st = &mut FixedStack::new(&mut buf);
+                    return if neg {
+                        kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                    } else {
+                        kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                    };
+                }
+                let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
+                if neg {
+                    kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                } else {
+                    kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                }
+            }
+        }
+
+        #[inline(never)]
+        $($feat)*
+        unsafe fn $any_slow<const W: usize, S: TraversalStats>(
+            bvh: &WideBvh<W>,
+            ray: &Ray,
+            stats: &mut S,
+        ) -> bool {
+            let neg = ray.tmin < 0.0;
+            // SAFETY: as above.
+            #[allow(unused_unsafe)]
+            unsafe {
+                if bvh.max_stack <= FIXED_STACK {
+                    let mut buf = FixedStack::buffer();
+                    let st = &mut FixedStack::new(&mut buf);
+                    return if neg {
+                        kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                    } else {
+                        kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                    };
+                }
+                let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
+                if neg {
+                    kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                } else {
+                    kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                }
+            }
+        }
+    };
+}
+
+// SSE2 is part of x86-64: the SSE2 entry points are always safe to call there.
+entry_points!(
+    Sse,
+    [],
+    closest_hit_sse2,
+    any_hit_sse2,
+    closest_sse2_slow,
+    any_sse2_slow
+);
+entry_points!(
+    Avx2,
+    [#[target_feature(enable = "avx2,fma")]],
+    closest_hit_avx2,
+    any_hit_avx2,
+    closest_avx2_slow,
+    any_avx2_slow
+);
+entry_points!(
+    Avx512,
+    [#[target_feature(enable = "avx2,fma,avx512f,avx512vl")]],
+    closest_hit_avx512,
+    any_hit_avx512,
+    closest_avx512_slow,
+    any_avx512_slow
+);
+
+/// Benchmark only (cargo feature `inexact-bench`, off by default, never a [`Backend`]): the
+/// AVX2 kernels with the exact watertight triangle test replaced by a plain 4-wide
+/// Möller–Trumbore test (no shear, no `f64` fallback, no `accept_hit` bounds clamp). Its
+/// answers are *not* the reference's; it exists to price exactness.
+///
+/// [`Backend`]: super::Backend
+#[cfg(feature = "inexact-bench")]
+pub(crate) mod inexact {
+    use super::kernel::Kernel;
+    use super::*;
+
+    pub(crate) struct Avx2Mt;
+
+    /// Möller–Trumbore on the 4 lanes of a packet against `[lo, hi]`: `(mask, t, u, v)`.
+    #[inline(always)]
+    unsafe fn mt4(
+        p: &TriPacket,
+        r: &SseRay,
+        lo: __m128,
+        hi: __m128,
+    ) -> (u32, __m128, __m128, __m128) {
+        // SAFETY (whole function): the packet is 16-byte aligned, rows hold 4 floats.
+        unsafe {
+            let base = p.v.as_ptr().cast::<f32>();
+            let ld = |k: usize, a: usize| _mm_load_ps(base.add(k * 12 + a * 4));
+            let v0 = [ld(0, 0), ld(0, 1), ld(0, 2)];
+            let e1 = [0, 1, 2].map(|a| _mm_sub_ps(ld(1, a), v0[a]));
+            let e2 = [0, 1, 2].map(|a| _mm_sub_ps(ld(2, a), v0[a]));
+            let d = r.dir;
+            let cross = |a: [__m128; 3], b: [__m128; 3]| {
+                [
+                    _mm_sub_ps(_mm_mul_ps(a[1], b[2]), _mm_mul_ps(a[2], b[1])),
+                    _mm_sub_ps(_mm_mul_ps(a[2], b[0]), _mm_mul_ps(a[0], b[2])),
+                    _mm_sub_ps(_mm_mul_ps(a[0], b[1]), _mm_mul_ps(a[1], b[0])),
+                ]
+            };
+            let dot = |a: [__m128; 3], b: [__m128; 3]| {
+                _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(a[0], b[0]), _mm_mul_ps(a[1], b[1])),
+                    _mm_mul_ps(a[2], b[2]),
+                )
+            };
+            let pv = cross(d, e2);
+            let det = dot(e1, pv);
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let sv = [0, 1, 2].map(|a| _mm_sub_ps(r.origin[a], v0[a]));
+            let u = _mm_mul_ps(dot(sv, pv), inv);
+            let qv = cross(sv, e1);
+            let v = _mm_mul_ps(dot(d, qv), inv);
+            let t = _mm_mul_ps(dot(e2, qv), inv);
+            let zero = _mm_setzero_ps();
+            let ok = _mm_and_ps(
+                _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmpge_ps(v, zero)),
+                _mm_and_ps(
+                    _mm_cmple_ps(_mm_add_ps(u, v), _mm_set1_ps(1.0)),
+                    _mm_and_ps(_mm_cmpge_ps(t, lo), _mm_cmple_ps(t, hi)),
+                ),
+            );
+            let ok = _mm_and_ps(ok, _mm_cmpneq_ps(det, zero));
+            (_mm_movemask_ps(ok) as u32, t, u, v)
+        }
+    }
+
+    impl<const W: usize> Kernel<W> for Avx2Mt {
+        type Ray = SseRay;
+
+        #[inline(always)]
+        unsafe fn prepare(rd: &RayData) -> SseRay {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { sse_ray::<W, false>(rd) }
+        }
+
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn intersect_node<const NEG: bool>(
+            node: &WideNode<W>,
+            r: &SseRay,
+            rd: &RayData,
+            tfar: f32,
+            dist: &mut [f32; W],
+        ) -> u32 {
+            // SAFETY: the caller guarantees AVX2 and FMA.
+            unsafe { <Avx2 as Kernel<W>>::intersect_node::<NEG>(node, r, rd, tfar, dist) }
+        }
+
+        #[inline(always)]
+        unsafe fn intersect_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+            tfar: f32,
+            out: &mut PacketHits,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
+            unsafe {
+                let hi = _mm_min_ps(r.t_hi, _mm_set1_ps(tfar));
+                let (m, t, u, v) = mt4(p, r, r.t_lo, hi);
+                if m != 0 {
+                    _mm_storeu_ps(out.t.as_mut_ptr(), t);
+                    _mm_storeu_ps(out.u.as_mut_ptr(), u);
+                    _mm_storeu_ps(out.v.as_mut_ptr(), v);
+                }
+                (m, 0)
+            }
+        }
+
+        #[inline(always)]
+        unsafe fn occlude_packet<const NEG: bool>(
+            p: &TriPacket,
+            r: &SseRay,
+            _: &RayData,
+        ) -> (u32, u32) {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { (mt4(p, r, r.t_lo, r.t_hi).0, 0) }
+        }
+    }
+
+    entry_points!(
+        Avx2Mt,
+        [#[target_feature(enable = "avx2,fma")]],
+        closest_hit_avx2_mt,
+        any_hit_avx2_mt,
+        closest_avx2_mt_slow,
+        any_avx2_mt_slow
+    );
+}
