@@ -238,10 +238,24 @@ pub fn intersect_triangle(
 /// before the best one is ever culled. `docs/robustness.md` gives the whole argument.
 #[inline]
 pub fn accept_hit(r: &WatertightRay, tri: &Triangle, tmin: f32, tmax: f32, t: f32) -> Option<f32> {
+    accept_hit_at(r.origin, r.inv_direction, tri, tmin, tmax, t)
+}
+
+/// [`accept_hit`] for a ray given by its origin and reciprocal direction (the rule of every
+/// triangle test of the workspace, the watertight one and [`intersect_triangle_fast`]).
+#[inline]
+pub fn accept_hit_at(
+    origin: Vec3A,
+    inv_direction: Vec3A,
+    tri: &Triangle,
+    tmin: f32,
+    tmax: f32,
+    t: f32,
+) -> Option<f32> {
     if is_degenerate(tri) {
         return None;
     }
-    let (n, f) = slab_span(r.origin, r.inv_direction, tmin < 0.0, &tri.bounds());
+    let (n, f) = slab_span(origin, inv_direction, tmin < 0.0, &tri.bounds());
     let tc = clamp_to_span(t, n, f);
     (n <= f && tc >= tmin && tc <= tmax && tc.is_finite()).then_some(tc)
 }
@@ -313,6 +327,81 @@ pub fn is_degenerate(tri: &Triangle) -> bool {
         e1[0] * e2[1] - e1[1] * e2[0],
     ];
     c == [0.0; 3]
+}
+
+/// Möller–Trumbore ray/triangle test with the division deferred: the reference of the `Fast`
+/// precision level of the traversal kernels (`sahara_traverse::Precision::Fast`), whose SIMD
+/// lanes perform these operations in this order, so that they agree with it bit for bit.
+///
+/// With `e1 = v1 - v0`, `e2 = v2 - v0`, `p = d × e2`, `det = e1 · p`, `s = o - v0`,
+/// `q = s × e1`: the edge tests compare `u = s · p` and `v = d · q`, their signs flipped by the
+/// sign of `det`, against 0 and `|det|` (no division: a triangle that fails them costs no
+/// divide), and only a triangle that passes divides: `t = (e2 · q) · (1 / det)`. Every cross
+/// product is `(a.y b.z - a.z b.y, a.z b.x - a.x b.z, a.x b.y - a.y b.x)` and every dot product
+/// `(a.x b.x + a.y b.y) + a.z b.z`, in `f32`. The distance then goes through the same
+/// [`accept_hit_at`] rule as the watertight test (clamped into the ray's span through the
+/// triangle's box, checked against `[tmin, tmax]`), which is what lets a BVH traversal agree
+/// with a brute-force scan of this test.
+///
+/// It is *not* watertight: a ray through a shared edge or vertex may miss both triangles, and
+/// hits near edges may go to the neighbour. `docs/precision.md` measures how often on real
+/// scenes. `inv_direction` must be `direction.recip()` (as [`Ray::inv_direction`] is).
+#[inline]
+pub fn intersect_triangle_fast(
+    origin: Vec3A,
+    direction: Vec3A,
+    inv_direction: Vec3A,
+    tri: &Triangle,
+    tmin: f32,
+    tmax: f32,
+) -> Option<TriangleHit> {
+    let [v0, v1, v2] = tri.v.map(|p| p.to_array());
+    let [ox, oy, oz] = origin.to_array();
+    let d = direction.to_array();
+    let e1 = [v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2]];
+    let e2 = [v2[0] - v0[0], v2[1] - v0[1], v2[2] - v0[2]];
+    let cross = |a: [f32; 3], b: [f32; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    let s = [ox - v0[0], oy - v0[1], oz - v0[2]];
+    let u = dot(s, p);
+    let q = cross(s, e1);
+    let v = dot(d, q);
+    // The signs of `u` and `v` flipped by the sign of `det` (its sign bit), compared with 0
+    // and `|det|`; NaN anywhere fails a comparison.
+    let sign = det.to_bits() & 0x8000_0000;
+    let flip = |x: f32| f32::from_bits(x.to_bits() ^ sign);
+    let (us, vs, adet) = (flip(u), flip(v), det.abs());
+    if !(adet > 0.0 && us >= 0.0 && vs >= 0.0 && us + vs <= adet) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let t = accept_hit_at(origin, inv_direction, tri, tmin, tmax, dot(e2, q) * inv)?;
+    Some(TriangleHit {
+        t,
+        u: u * inv,
+        v: v * inv,
+    })
+}
+
+/// [`intersect_triangle_fast`] of one ray over its own interval.
+#[inline]
+pub fn intersect_ray_triangle_fast(ray: &Ray, tri: &Triangle) -> Option<TriangleHit> {
+    intersect_triangle_fast(
+        ray.origin,
+        ray.direction(),
+        ray.inv_direction(),
+        tri,
+        ray.tmin,
+        ray.tmax,
+    )
 }
 
 /// Convenience wrapper: precomputes the ray constants and tests one triangle.

@@ -5,11 +5,11 @@
 //! cargo run --release -p sahara-traverse --example kernel_bench -- \
 //!     --scene sponza_dabrovic --rays sponza.diffuse.rays \
 //!     [--builder sweep] [--layout bvh8|bvh4] [--backend avx512|avx2|sse2|portable] \
-//!     [--any] [--passes 5] [--limit N] [--inexact]
+//!     [--any] [--passes 5] [--limit N] [--precision exact|fast]
 //! ```
 //!
-//! `--inexact` (needs `--features inexact-bench`) times the benchmark-only AVX2 kernel with a
-//! Möller–Trumbore triangle test instead of the exact one (its answers differ).
+//! `--precision fast` times the kernels with the Möller–Trumbore triangle test of
+//! `Precision::Fast` instead of the exact one (their answers differ on edges).
 //!
 //! The ray file is one written by `cargo xtask trace --dump-rays` (32-byte little-endian
 //! records: origin, tmin, direction, tmax). The tree is the registry's builder (default
@@ -19,7 +19,9 @@
 //! `valgrind --tool=callgrind --toggle-collect='*trace_all*'`).
 
 use sahara_geom::{Ray, Vec3A};
-use sahara_traverse::{Backend, Bvh4, Bvh8, Hit, NoStats, TraversalStats, WideBvh, WorkCounters};
+use sahara_traverse::{
+    Backend, Bvh4, Bvh8, Hit, NoStats, Precision, TraversalStats, WideBvh, WorkCounters,
+};
 use std::time::Instant;
 
 fn read_rays(path: &str, limit: usize) -> Vec<Ray> {
@@ -40,20 +42,14 @@ fn read_rays(path: &str, limit: usize) -> Vec<Ray> {
         .collect()
 }
 
-/// Closest hit with backend `b`, or with the benchmark-only inexact kernel (`--inexact`).
+/// Closest hit with backend `b` (the tree's precision is set by `--precision`).
 #[inline(always)]
 fn closest<const W: usize, S: TraversalStats>(
     w: &WideBvh<W>,
     b: Backend,
-    inexact: bool,
     r: &Ray,
     s: &mut S,
 ) -> Hit {
-    #[cfg(feature = "inexact-bench")]
-    if inexact {
-        return w.closest_hit_inexact(r, s);
-    }
-    assert!(!inexact, "--inexact needs --features inexact-bench");
     w.closest_hit_with(b, r, s)
 }
 
@@ -62,31 +58,25 @@ fn closest<const W: usize, S: TraversalStats>(
 fn any_hit<const W: usize, S: TraversalStats>(
     w: &WideBvh<W>,
     b: Backend,
-    inexact: bool,
     r: &Ray,
     s: &mut S,
 ) -> bool {
-    #[cfg(feature = "inexact-bench")]
-    if inexact {
-        return w.any_hit_inexact(r, s);
-    }
-    assert!(!inexact, "--inexact needs --features inexact-bench");
     w.any_hit_with(b, r, s)
 }
 
 /// Traces every ray once; returns a checksum of the answers.
 #[inline(never)]
-fn trace_all<const W: usize>(w: &WideBvh<W>, b: Backend, x: bool, rays: &[Ray], any: bool) -> u64 {
+fn trace_all<const W: usize>(w: &WideBvh<W>, b: Backend, rays: &[Ray], any: bool) -> u64 {
     let mut sum = 0u64;
     if any {
         for r in rays {
             sum = sum
                 .wrapping_mul(3)
-                .wrapping_add(any_hit(w, b, x, r, &mut NoStats) as u64);
+                .wrapping_add(any_hit(w, b, r, &mut NoStats) as u64);
         }
     } else {
         for r in rays {
-            let h = closest(w, b, x, r, &mut NoStats);
+            let h = closest(w, b, r, &mut NoStats);
             sum = sum
                 .wrapping_mul(0x100_0000_01b3)
                 .wrapping_add(h.prim as u64 ^ ((h.t.to_bits() as u64) << 32))
@@ -96,15 +86,8 @@ fn trace_all<const W: usize>(w: &WideBvh<W>, b: Backend, x: bool, rays: &[Ray], 
     sum
 }
 
-fn run<const W: usize>(
-    w: &WideBvh<W>,
-    b: Backend,
-    x: bool,
-    rays: &[Ray],
-    any: bool,
-    passes: usize,
-) {
-    let check = trace_all(w, b, x, rays, any);
+fn run<const W: usize>(w: &WideBvh<W>, b: Backend, rays: &[Ray], any: bool, passes: usize) {
+    let check = trace_all(w, b, rays, any);
     if passes == 0 {
         println!("checksum {check:016x}");
         return;
@@ -112,15 +95,15 @@ fn run<const W: usize>(
     let mut c = WorkCounters::default();
     for r in rays {
         if any {
-            any_hit(w, b, x, r, &mut c);
+            any_hit(w, b, r, &mut c);
         } else {
-            closest(w, b, x, r, &mut c);
+            closest(w, b, r, &mut c);
         }
     }
     let mut speed: Vec<f64> = (0..passes)
         .map(|_| {
             let t0 = Instant::now();
-            let s = trace_all(w, b, x, rays, any);
+            let s = trace_all(w, b, rays, any);
             let dt = t0.elapsed().as_secs_f64();
             assert_eq!(s, check, "answers changed between passes");
             rays.len() as f64 / dt / 1e6
@@ -153,7 +136,7 @@ fn main() {
     let passes: usize = get("--passes").map_or(5, |s| s.parse().unwrap());
     let limit: usize = get("--limit").map_or(usize::MAX, |s| s.parse().unwrap());
     let any = args.iter().any(|a| a == "--any");
-    let inexact = args.iter().any(|a| a == "--inexact");
+    let precision: Precision = get("--precision").map_or(Precision::Exact, |s| s.parse().unwrap());
     let backend = get("--backend").map_or(Backend::best(), |s| {
         *Backend::ALL
             .iter()
@@ -172,17 +155,15 @@ fn main() {
         .unwrap();
     match layout.as_str() {
         "bvh4" => run(
-            &Bvh4::from_bvh(&bvh, &tris),
+            &Bvh4::from_bvh(&bvh, &tris).with_precision(precision),
             backend,
-            inexact,
             &rays,
             any,
             passes,
         ),
         "bvh8" => run(
-            &Bvh8::from_bvh(&bvh, &tris),
+            &Bvh8::from_bvh(&bvh, &tris).with_precision(precision),
             backend,
-            inexact,
             &rays,
             any,
             passes,

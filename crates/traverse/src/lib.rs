@@ -34,10 +34,12 @@
 pub mod brute;
 pub mod custom;
 pub mod instance;
+mod precision;
 pub mod scalar;
 mod stats;
 pub mod wide;
 
+pub use precision::{ParsePrecisionError, Precision};
 pub use sahara_bvh::Bvh;
 pub use stats::{NoStats, TraversalStats, WorkCounters};
 pub use wide::{simd_backend, Backend, Bvh4, Bvh8, Layout, ParseLayoutError, WideBvh, WideNode};

@@ -6,9 +6,11 @@ mod wide_common;
 
 use sahara_bvh::Bvh;
 use sahara_fixtures::soups::mixed_soup;
-use sahara_geom::{intersect::intersect_triangle, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
+use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast};
+use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
-    brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, Layout, NoStats, WideBvh, WorkCounters,
+    brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, Layout, NoStats, Precision, WideBvh,
+    WorkCounters,
 };
 use wide_common::*;
 
@@ -28,7 +30,8 @@ fn bits(h: &Hit) -> (u32, u32, u32, u32) {
 ///
 /// The scalar reference must return exactly the brute-force hit (t, prim, u, v bit for bit;
 /// since the hit acceptance rule `accept_hit` and the widened box interval, there are no
-/// corner cases left), and every wide kernel exactly the same.
+/// corner cases left), and every wide kernel exactly the same; with `Precision::Fast`, every
+/// wide kernel exactly the hit of the fast brute-force twin.
 fn check_wide<const W: usize>(
     wide: &WideBvh<W>,
     bvh: &Bvh,
@@ -36,6 +39,8 @@ fn check_wide<const W: usize>(
     rays: &[Ray],
     what: &str,
 ) -> usize {
+    assert_eq!(wide.precision(), Precision::Exact);
+    let fast = wide.clone().with_precision(Precision::Fast);
     let mut hits = 0;
     for (i, ray) in rays.iter().enumerate() {
         let want = brute::closest_hit(tris, ray);
@@ -63,6 +68,22 @@ fn check_wide<const W: usize>(
             assert_eq!(
                 got_any, want_any,
                 "{what}: bvh{W} {b} any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
+            );
+        }
+        // The fast precision against its own twin.
+        let want = brute::closest_hit_at(tris, ray, Precision::Fast);
+        let want_any = brute::any_hit_at(tris, ray, Precision::Fast);
+        for b in backends() {
+            let got = fast.closest_hit_with(b, ray, &mut NoStats);
+            assert_eq!(
+                bits(&got),
+                bits(&want),
+                "{what}: bvh{W} {b} fast closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
+            );
+            let got_any = fast.any_hit_with(b, ray, &mut NoStats);
+            assert_eq!(
+                got_any, want_any,
+                "{what}: bvh{W} {b} fast any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
             );
         }
     }
@@ -378,6 +399,34 @@ fn packet_test_is_bit_exact() {
                     "{tri:?} {ray:?} {b}"
                 );
                 assert_eq!(w8.any_hit_with(b, &ray, &mut NoStats), want.is_hit());
+            }
+            // The Möller–Trumbore lanes against the scalar fast test.
+            let want = intersect_triangle_fast(
+                ray.origin,
+                ray.direction(),
+                ray.inv_direction(),
+                tri,
+                ray.tmin,
+                ray.tmax,
+            );
+            let want = want.map_or(Hit::MISS, |h| Hit {
+                t: h.t,
+                prim: 0,
+                u: h.u,
+                v: h.v,
+            });
+            let (f4, f8) = (
+                w4.clone().with_precision(Precision::Fast),
+                w8.clone().with_precision(Precision::Fast),
+            );
+            for b in backends() {
+                for (w, got) in [
+                    (4, f4.closest_hit_with(b, &ray, &mut NoStats)),
+                    (8, f8.closest_hit_with(b, &ray, &mut NoStats)),
+                ] {
+                    assert_eq!(bits(&got), bits(&want), "fast bvh{w} {tri:?} {ray:?} {b}");
+                }
+                assert_eq!(f8.any_hit_with(b, &ray, &mut NoStats), want.is_hit());
             }
         }
     }

@@ -9,6 +9,7 @@ use super::{
     encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
     MAX_LEAF_PACKETS, NO_ROOT,
 };
+use crate::Precision;
 use sahara_bvh::Bvh;
 use sahara_geom::intersect::is_degenerate;
 use sahara_geom::{Aabb, Triangle};
@@ -509,6 +510,7 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
             root_bounds: Aabb::EMPTY,
             max_stack: 1,
             backend,
+            precision: Precision::Exact,
         };
     }
     let n = bvh.nodes.len();
@@ -537,6 +539,7 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
         root_bounds: bvh.nodes[0].bounds(),
         max_stack,
         backend,
+        precision: Precision::Exact,
     }
 }
 

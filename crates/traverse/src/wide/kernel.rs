@@ -43,8 +43,7 @@ pub(crate) struct RayData {
     /// it is the opposite octant's, i.e. this ray's far-to-near order (read from the first).
     pub(crate) order_q: usize,
     pub(crate) order_xor: usize,
-    /// The direction (only the benchmark-only inexact test needs it).
-    #[cfg(feature = "inexact-bench")]
+    /// The direction (for the `Fast` precision's Möller–Trumbore test).
     pub(crate) dir: [f32; 3],
 }
 
@@ -81,7 +80,6 @@ impl RayData {
             w: WatertightRay::with_inverse(ray.origin, sahara_geom::Vec3A::Z, ray.inv_direction()),
             order_q,
             order_xor,
-            #[cfg(feature = "inexact-bench")]
             dir: ray.direction().to_array(),
         }
     }

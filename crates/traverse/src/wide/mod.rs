@@ -89,7 +89,7 @@ mod portable;
 #[cfg(target_arch = "x86_64")]
 mod x86;
 
-use crate::{Hit, TraversalStats};
+use crate::{Hit, Precision, TraversalStats};
 use sahara_bvh::Bvh;
 use sahara_geom::{Aabb, Ray, Triangle};
 use std::fmt;
@@ -281,6 +281,8 @@ pub struct WideBvh<const W: usize> {
     /// Upper bound of the traversal stack depth.
     pub(crate) max_stack: usize,
     pub(crate) backend: Backend,
+    /// The triangle test of the queries ([`WideBvh::set_precision`]).
+    pub(crate) precision: Precision,
 }
 
 /// Empty-tree root marker.
@@ -322,23 +324,43 @@ impl<const W: usize> WideBvh<W> {
         ray: &Ray,
         stats: &mut S,
     ) -> Hit {
+        let fast = self.precision == Precision::Fast;
         match backend {
             #[cfg(target_arch = "x86_64")]
             Backend::Avx512 if backend == self.backend || Backend::Avx512.is_available() => {
                 // SAFETY: AVX2, FMA, AVX-512F and AVX-512VL are present (checked above or when
                 // `self.backend` was chosen).
-                unsafe { x86::closest_hit_avx512(self, ray, stats) }
+                unsafe {
+                    if fast {
+                        x86::closest_hit_avx512_fast(self, ray, stats)
+                    } else {
+                        x86::closest_hit_avx512(self, ray, stats)
+                    }
+                }
             }
             #[cfg(target_arch = "x86_64")]
             Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
                 // SAFETY: AVX2 and FMA are present (checked above or when `self.backend` was
                 // chosen).
-                unsafe { x86::closest_hit_avx2(self, ray, stats) }
+                unsafe {
+                    if fast {
+                        x86::closest_hit_avx2_fast(self, ray, stats)
+                    } else {
+                        x86::closest_hit_avx2(self, ray, stats)
+                    }
+                }
             }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: SSE2 is part of x86-64.
-            Backend::Sse2 => unsafe { x86::closest_hit_sse2(self, ray, stats) },
-            _ => portable::closest_hit(self, ray, stats),
+            Backend::Sse2 => unsafe {
+                if fast {
+                    x86::closest_hit_sse2_fast(self, ray, stats)
+                } else {
+                    x86::closest_hit_sse2(self, ray, stats)
+                }
+            },
+            _ if fast => portable::closest_hit::<W, S, true>(self, ray, stats),
+            _ => portable::closest_hit::<W, S, false>(self, ray, stats),
         }
     }
 
@@ -351,21 +373,41 @@ impl<const W: usize> WideBvh<W> {
         ray: &Ray,
         stats: &mut S,
     ) -> bool {
+        let fast = self.precision == Precision::Fast;
         match backend {
             #[cfg(target_arch = "x86_64")]
             Backend::Avx512 if backend == self.backend || Backend::Avx512.is_available() => {
                 // SAFETY: as in `closest_hit_with`.
-                unsafe { x86::any_hit_avx512(self, ray, stats) }
+                unsafe {
+                    if fast {
+                        x86::any_hit_avx512_fast(self, ray, stats)
+                    } else {
+                        x86::any_hit_avx512(self, ray, stats)
+                    }
+                }
             }
             #[cfg(target_arch = "x86_64")]
             Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
                 // SAFETY: as in `closest_hit_with`.
-                unsafe { x86::any_hit_avx2(self, ray, stats) }
+                unsafe {
+                    if fast {
+                        x86::any_hit_avx2_fast(self, ray, stats)
+                    } else {
+                        x86::any_hit_avx2(self, ray, stats)
+                    }
+                }
             }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: SSE2 is part of x86-64.
-            Backend::Sse2 => unsafe { x86::any_hit_sse2(self, ray, stats) },
-            _ => portable::any_hit(self, ray, stats),
+            Backend::Sse2 => unsafe {
+                if fast {
+                    x86::any_hit_sse2_fast(self, ray, stats)
+                } else {
+                    x86::any_hit_sse2(self, ray, stats)
+                }
+            },
+            _ if fast => portable::any_hit::<W, S, true>(self, ray, stats),
+            _ => portable::any_hit::<W, S, false>(self, ray, stats),
         }
     }
 
@@ -376,6 +418,44 @@ impl<const W: usize> WideBvh<W> {
     #[inline]
     pub fn backend(&self) -> Backend {
         self.backend
+    }
+
+    /// The triangle test of every query of this tree ([`Precision::Exact`] unless
+    /// [`WideBvh::set_precision`] chose another).
+    #[inline]
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+
+    /// Chooses the triangle test of every query of this tree (a setting of the traced
+    /// structure, as Embree's robust scene flag is of a scene). Each precision returns exactly
+    /// the hits of its brute-force twin ([`crate::brute::closest_hit_at`]); the filtered and
+    /// custom-primitive queries always use the exact test.
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Ray, Triangle, Vec3A};
+    /// use sahara_traverse::{brute, Bvh8, NoStats, Precision};
+    ///
+    /// let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))];
+    /// let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+    /// let mut wide = Bvh8::from_bvh(&bvh, &tris);
+    /// wide.set_precision(Precision::Fast);
+    /// let ray = Ray::new(Vec3A::new(0.1, 0.2, 0.0), Vec3A::Z, 0.0, f32::INFINITY);
+    /// let hit = wide.closest_hit(&ray, &mut NoStats);
+    /// assert_eq!(hit, brute::closest_hit_at(&tris, &ray, Precision::Fast));
+    /// assert_eq!(hit.t, 2.0);
+    /// ```
+    #[inline]
+    pub fn set_precision(&mut self, precision: Precision) {
+        self.precision = precision;
+    }
+
+    /// The same tree with another [`WideBvh::set_precision`].
+    #[inline]
+    pub fn with_precision(mut self, precision: Precision) -> Self {
+        self.precision = precision;
+        self
     }
 
     /// Number of inner nodes.
@@ -441,42 +521,6 @@ impl<const W: usize> WideBvh<W> {
         let (lo, hi) = self.root_bounds.to_arrays();
         lo.iter().chain(&hi).for_each(|f| eat(f.to_bits()));
         h
-    }
-}
-
-#[cfg(all(feature = "inexact-bench", target_arch = "x86_64"))]
-impl<const W: usize> WideBvh<W> {
-    /// Benchmark only (cargo feature `inexact-bench`, off by default): closest hit with the
-    /// AVX2 box tests and a non-watertight Möller–Trumbore triangle test. Its answers are
-    /// **not** those of the reference kernels (no exactness, no watertightness); it exists to
-    /// measure what exactness costs.
-    ///
-    /// # Panics
-    ///
-    /// If the CPU lacks AVX2 or FMA.
-    #[doc(hidden)]
-    pub fn closest_hit_inexact<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> Hit {
-        assert!(
-            Backend::Avx2.is_available(),
-            "the inexact kernel needs AVX2 and FMA"
-        );
-        // SAFETY: AVX2 and FMA are present.
-        unsafe { x86::inexact::closest_hit_avx2_mt(self, ray, stats) }
-    }
-
-    /// Benchmark only: the any-hit version of [`WideBvh::closest_hit_inexact`].
-    ///
-    /// # Panics
-    ///
-    /// If the CPU lacks AVX2 or FMA.
-    #[doc(hidden)]
-    pub fn any_hit_inexact<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        assert!(
-            Backend::Avx2.is_available(),
-            "the inexact kernel needs AVX2 and FMA"
-        );
-        // SAFETY: AVX2 and FMA are present.
-        unsafe { x86::inexact::any_hit_avx2_mt(self, ray, stats) }
     }
 }
 

@@ -3,13 +3,35 @@
 use super::kernel::{self, FixedStack, Kernel, PacketHits, RayData, VecStack, FIXED_STACK};
 use super::{TriPacket, WideBvh, WideNode};
 use crate::{Hit, TraversalStats};
-use sahara_geom::intersect::intersect_triangle;
-use sahara_geom::Ray;
+use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast, TriangleHit};
+use sahara_geom::{Ray, Vec3A};
 
-/// Scalar box and triangle tests, lane by lane.
-pub(crate) struct Portable;
+/// Scalar box and triangle tests, lane by lane, with the watertight triangle test
+/// ([`Precision::Exact`](crate::Precision::Exact)) when `FAST` is false and Möller–Trumbore
+/// ([`Precision::Fast`](crate::Precision::Fast)) when it is true.
+pub(crate) struct Scalar<const FAST: bool>;
 
-impl<const W: usize> Kernel<W> for Portable {
+/// The portable backend of [`Precision::Exact`](crate::Precision::Exact).
+pub(crate) type Portable = Scalar<false>;
+
+/// The triangle test of lane `l` of a packet over the ray's interval.
+#[inline(always)]
+fn lane_test<const FAST: bool>(p: &TriPacket, l: usize, rd: &RayData) -> Option<TriangleHit> {
+    if FAST {
+        intersect_triangle_fast(
+            rd.w.origin(),
+            Vec3A::from(rd.dir),
+            rd.w.inv_direction(),
+            &p.triangle(l),
+            rd.tmin,
+            rd.tmax,
+        )
+    } else {
+        intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax)
+    }
+}
+
+impl<const W: usize, const FAST: bool> Kernel<W> for Scalar<FAST> {
     type Ray = ();
 
     #[inline(always)]
@@ -48,7 +70,7 @@ impl<const W: usize> Kernel<W> for Portable {
             if p.prims[l] == u32::MAX {
                 continue;
             }
-            if let Some(h) = intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax) {
+            if let Some(h) = lane_test::<FAST>(p, l, rd) {
                 if h.t <= tfar {
                     out.t[l] = h.t;
                     out.u[l] = h.u;
@@ -64,9 +86,7 @@ impl<const W: usize> Kernel<W> for Portable {
     unsafe fn occlude_packet<const NEG: bool>(p: &TriPacket, _: &(), rd: &RayData) -> (u32, u32) {
         let mut mask = 0;
         for l in 0..4 {
-            if p.prims[l] != u32::MAX
-                && intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax).is_some()
-            {
+            if p.prims[l] != u32::MAX && lane_test::<FAST>(p, l, rd).is_some() {
                 mask |= 1 << l;
             }
         }
@@ -74,7 +94,7 @@ impl<const W: usize> Kernel<W> for Portable {
     }
 }
 
-pub(crate) fn closest_hit<const W: usize, S: TraversalStats>(
+pub(crate) fn closest_hit<const W: usize, S: TraversalStats, const FAST: bool>(
     bvh: &WideBvh<W>,
     ray: &Ray,
     stats: &mut S,
@@ -82,13 +102,13 @@ pub(crate) fn closest_hit<const W: usize, S: TraversalStats>(
     // SAFETY: the portable kernel needs no CPU feature.
     unsafe {
         match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
-            (true, false) => kernel::closest_hit::<Portable, W, S, _, false>(
+            (true, false) => kernel::closest_hit::<Scalar<FAST>, W, S, _, false>(
                 bvh,
                 ray,
                 stats,
                 &mut FixedStack::new(&mut FixedStack::buffer()),
             ),
-            (true, true) => kernel::closest_hit::<Portable, W, S, _, true>(
+            (true, true) => kernel::closest_hit::<Scalar<FAST>, W, S, _, true>(
                 bvh,
                 ray,
                 stats,
@@ -97,16 +117,16 @@ pub(crate) fn closest_hit<const W: usize, S: TraversalStats>(
             (false, neg) => {
                 let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
                 if neg {
-                    kernel::closest_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut st)
+                    kernel::closest_hit::<Scalar<FAST>, W, S, _, true>(bvh, ray, stats, &mut st)
                 } else {
-                    kernel::closest_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut st)
+                    kernel::closest_hit::<Scalar<FAST>, W, S, _, false>(bvh, ray, stats, &mut st)
                 }
             }
         }
     }
 }
 
-pub(crate) fn any_hit<const W: usize, S: TraversalStats>(
+pub(crate) fn any_hit<const W: usize, S: TraversalStats, const FAST: bool>(
     bvh: &WideBvh<W>,
     ray: &Ray,
     stats: &mut S,
@@ -114,13 +134,13 @@ pub(crate) fn any_hit<const W: usize, S: TraversalStats>(
     // SAFETY: as in `closest_hit`.
     unsafe {
         match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
-            (true, false) => kernel::any_hit::<Portable, W, S, _, false>(
+            (true, false) => kernel::any_hit::<Scalar<FAST>, W, S, _, false>(
                 bvh,
                 ray,
                 stats,
                 &mut FixedStack::new(&mut FixedStack::buffer()),
             ),
-            (true, true) => kernel::any_hit::<Portable, W, S, _, true>(
+            (true, true) => kernel::any_hit::<Scalar<FAST>, W, S, _, true>(
                 bvh,
                 ray,
                 stats,
@@ -129,9 +149,9 @@ pub(crate) fn any_hit<const W: usize, S: TraversalStats>(
             (false, neg) => {
                 let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
                 if neg {
-                    kernel::any_hit::<Portable, W, S, _, true>(bvh, ray, stats, &mut st)
+                    kernel::any_hit::<Scalar<FAST>, W, S, _, true>(bvh, ray, stats, &mut st)
                 } else {
-                    kernel::any_hit::<Portable, W, S, _, false>(bvh, ray, stats, &mut st)
+                    kernel::any_hit::<Scalar<FAST>, W, S, _, false>(bvh, ray, stats, &mut st)
                 }
             }
         }

@@ -1,6 +1,9 @@
 //! SSE2, AVX2 and AVX-512 backends (x86-64), one file per backend (`sse2.rs`, `avx2.rs`,
-//! `avx512.rs`) and one per triangle test (`watertight.rs`), on the ray constants and entry
-//! points of this file.
+//! `avx512.rs`) and one per triangle test (`watertight.rs` for [`Precision::Exact`],
+//! `moller.rs` for [`Precision::Fast`]), on the ray constants and entry points of this file.
+//!
+//! [`Precision::Exact`]: crate::Precision::Exact
+//! [`Precision::Fast`]: crate::Precision::Fast
 //!
 //! The box tests reproduce [`RayData::slab`] lane by lane: `_mm_max_ps(a, b)` and
 //! `_mm_min_ps(a, b)` return `b` when either operand is NaN, so the running near / far
@@ -40,9 +43,6 @@ pub(crate) struct SseRay {
     /// [`dominant_slab4`].
     w_far: __m128,
     w_far_neg: __m128,
-    /// The direction, for the benchmark-only Möller–Trumbore test ([`inexact`]).
-    #[cfg(feature = "inexact-bench")]
-    dir: [__m128; 3],
 }
 
 /// The three components of `v`, each broadcast to the four lanes (one shuffle each; with SSE2
@@ -116,8 +116,6 @@ unsafe fn sse_ray<const W: usize, const SPLAT: bool>(rd: &RayData) -> SseRay {
             w_axis: [kx, ky, kz],
             w_far: _mm_set1_ps(rd.inv_far[kz]),
             w_far_neg: _mm_set1_ps(rd.inv_far_neg[kz]),
-            #[cfg(feature = "inexact-bench")]
-            dir: rd.dir.map(|x| _mm_set1_ps(x)),
         }
     }
 }
@@ -165,6 +163,7 @@ macro_rules! sse_ray_and_packets {
 
 mod avx2;
 mod avx512;
+mod moller;
 mod sse2;
 mod watertight;
 
@@ -172,6 +171,83 @@ pub(crate) use avx2::Avx2;
 pub(crate) use avx512::Avx512;
 pub(crate) use sse2::Sse;
 use watertight::{packet_closest, packet_occluded};
+
+/// A backend `K` with the Möller–Trumbore packet tests of [`Precision::Fast`]
+/// (`moller.rs`) in place of the watertight ones: the same box tests, descent and loops.
+///
+/// [`Precision::Fast`]: crate::Precision::Fast
+pub(crate) struct Fast<K>(std::marker::PhantomData<K>);
+
+/// The ray of [`Fast`]: the backend's ray and the direction (which only the Möller–Trumbore
+/// test needs, so the exact kernels do not broadcast it).
+#[derive(Clone, Copy)]
+pub(crate) struct FastRay {
+    base: SseRay,
+    dir: [__m128; 3],
+}
+
+impl<const W: usize, K: kernel::Kernel<W, Ray = SseRay>> kernel::Kernel<W> for Fast<K> {
+    type Ray = FastRay;
+
+    const NESTED_LOOPS: bool = K::NESTED_LOOPS;
+
+    #[inline(always)]
+    unsafe fn prepare(rd: &RayData) -> FastRay {
+        // SAFETY: forwarded from the caller; SSE2 is part of x86-64.
+        unsafe {
+            FastRay {
+                base: K::prepare(rd),
+                dir: rd.dir.map(|x| _mm_set1_ps(x)),
+            }
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn intersect_node<const NEG: bool>(
+        node: &WideNode<W>,
+        r: &FastRay,
+        rd: &RayData,
+        tfar: f32,
+        dist: &mut [f32; W],
+    ) -> u32 {
+        // SAFETY: forwarded from the caller.
+        unsafe { K::intersect_node::<NEG>(node, &r.base, rd, tfar, dist) }
+    }
+
+    #[inline(always)]
+    unsafe fn descend<St: kernel::Stack>(
+        node: &WideNode<W>,
+        mask: u32,
+        dist: &[f32; W],
+        rd: &RayData,
+        stack: &mut St,
+    ) -> Option<u32> {
+        // SAFETY: forwarded from the caller.
+        unsafe { K::descend(node, mask, dist, rd, stack) }
+    }
+
+    #[inline(always)]
+    unsafe fn intersect_packet<const NEG: bool>(
+        p: &TriPacket,
+        r: &FastRay,
+        _: &RayData,
+        tfar: f32,
+        out: &mut PacketHits,
+    ) -> (u32, u32) {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { moller::packet_closest::<NEG>(p, &r.base, &r.dir, tfar, out) }
+    }
+
+    #[inline(always)]
+    unsafe fn occlude_packet<const NEG: bool>(
+        p: &TriPacket,
+        r: &FastRay,
+        _: &RayData,
+    ) -> (u32, u32) {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { moller::packet_occluded::<NEG>(p, &r.base, &r.dir) }
+    }
+}
 
 /// Generates the entry points of a backend: a fast path (inline stack, `tmin >= 0`) and an
 /// out-of-line path for deep trees and rays with `tmin < 0`. The entry points are `unsafe`:
@@ -300,130 +376,27 @@ entry_points!(
     closest_avx512_slow,
     any_avx512_slow
 );
-
-/// Benchmark only (cargo feature `inexact-bench`, off by default, never a [`Backend`]): the
-/// AVX2 kernels with the exact watertight triangle test replaced by a plain 4-wide
-/// Möller–Trumbore test (no shear, no `f64` fallback, no `accept_hit` bounds clamp). Its
-/// answers are *not* the reference's; it exists to price exactness.
-///
-/// [`Backend`]: super::Backend
-#[cfg(feature = "inexact-bench")]
-pub(crate) mod inexact {
-    use super::kernel::Kernel;
-    use super::*;
-
-    pub(crate) struct Avx2Mt;
-
-    /// Möller–Trumbore on the 4 lanes of a packet against `[lo, hi]`: `(mask, t, u, v)`.
-    #[inline(always)]
-    unsafe fn mt4(
-        p: &TriPacket,
-        r: &SseRay,
-        lo: __m128,
-        hi: __m128,
-    ) -> (u32, __m128, __m128, __m128) {
-        // SAFETY (whole function): the packet is 16-byte aligned, rows hold 4 floats.
-        unsafe {
-            let base = p.v.as_ptr().cast::<f32>();
-            let ld = |k: usize, a: usize| _mm_load_ps(base.add(k * 12 + a * 4));
-            let v0 = [ld(0, 0), ld(0, 1), ld(0, 2)];
-            let e1 = [0, 1, 2].map(|a| _mm_sub_ps(ld(1, a), v0[a]));
-            let e2 = [0, 1, 2].map(|a| _mm_sub_ps(ld(2, a), v0[a]));
-            let d = r.dir;
-            let cross = |a: [__m128; 3], b: [__m128; 3]| {
-                [
-                    _mm_sub_ps(_mm_mul_ps(a[1], b[2]), _mm_mul_ps(a[2], b[1])),
-                    _mm_sub_ps(_mm_mul_ps(a[2], b[0]), _mm_mul_ps(a[0], b[2])),
-                    _mm_sub_ps(_mm_mul_ps(a[0], b[1]), _mm_mul_ps(a[1], b[0])),
-                ]
-            };
-            let dot = |a: [__m128; 3], b: [__m128; 3]| {
-                _mm_add_ps(
-                    _mm_add_ps(_mm_mul_ps(a[0], b[0]), _mm_mul_ps(a[1], b[1])),
-                    _mm_mul_ps(a[2], b[2]),
-                )
-            };
-            let pv = cross(d, e2);
-            let det = dot(e1, pv);
-            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
-            let sv = [0, 1, 2].map(|a| _mm_sub_ps(r.origin[a], v0[a]));
-            let u = _mm_mul_ps(dot(sv, pv), inv);
-            let qv = cross(sv, e1);
-            let v = _mm_mul_ps(dot(d, qv), inv);
-            let t = _mm_mul_ps(dot(e2, qv), inv);
-            let zero = _mm_setzero_ps();
-            let ok = _mm_and_ps(
-                _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmpge_ps(v, zero)),
-                _mm_and_ps(
-                    _mm_cmple_ps(_mm_add_ps(u, v), _mm_set1_ps(1.0)),
-                    _mm_and_ps(_mm_cmpge_ps(t, lo), _mm_cmple_ps(t, hi)),
-                ),
-            );
-            let ok = _mm_and_ps(ok, _mm_cmpneq_ps(det, zero));
-            (_mm_movemask_ps(ok) as u32, t, u, v)
-        }
-    }
-
-    impl<const W: usize> Kernel<W> for Avx2Mt {
-        type Ray = SseRay;
-
-        #[inline(always)]
-        unsafe fn prepare(rd: &RayData) -> SseRay {
-            // SAFETY: SSE2 is part of x86-64.
-            unsafe { sse_ray::<W, false>(rd) }
-        }
-
-        #[inline]
-        #[target_feature(enable = "avx2,fma")]
-        unsafe fn intersect_node<const NEG: bool>(
-            node: &WideNode<W>,
-            r: &SseRay,
-            rd: &RayData,
-            tfar: f32,
-            dist: &mut [f32; W],
-        ) -> u32 {
-            // SAFETY: the caller guarantees AVX2 and FMA.
-            unsafe { <Avx2 as Kernel<W>>::intersect_node::<NEG>(node, r, rd, tfar, dist) }
-        }
-
-        #[inline(always)]
-        unsafe fn intersect_packet<const NEG: bool>(
-            p: &TriPacket,
-            r: &SseRay,
-            _: &RayData,
-            tfar: f32,
-            out: &mut PacketHits,
-        ) -> (u32, u32) {
-            // SAFETY: SSE2 is part of x86-64; `out`'s arrays hold 4 floats.
-            unsafe {
-                let hi = _mm_min_ps(r.t_hi, _mm_set1_ps(tfar));
-                let (m, t, u, v) = mt4(p, r, r.t_lo, hi);
-                if m != 0 {
-                    _mm_storeu_ps(out.t.as_mut_ptr(), t);
-                    _mm_storeu_ps(out.u.as_mut_ptr(), u);
-                    _mm_storeu_ps(out.v.as_mut_ptr(), v);
-                }
-                (m, 0)
-            }
-        }
-
-        #[inline(always)]
-        unsafe fn occlude_packet<const NEG: bool>(
-            p: &TriPacket,
-            r: &SseRay,
-            _: &RayData,
-        ) -> (u32, u32) {
-            // SAFETY: SSE2 is part of x86-64.
-            unsafe { (mt4(p, r, r.t_lo, r.t_hi).0, 0) }
-        }
-    }
-
-    entry_points!(
-        Avx2Mt,
-        [#[target_feature(enable = "avx2,fma")]],
-        closest_hit_avx2_mt,
-        any_hit_avx2_mt,
-        closest_avx2_mt_slow,
-        any_avx2_mt_slow
-    );
-}
+entry_points!(
+    Fast<Sse>,
+    [],
+    closest_hit_sse2_fast,
+    any_hit_sse2_fast,
+    closest_sse2_fast_slow,
+    any_sse2_fast_slow
+);
+entry_points!(
+    Fast<Avx2>,
+    [#[target_feature(enable = "avx2,fma")]],
+    closest_hit_avx2_fast,
+    any_hit_avx2_fast,
+    closest_avx2_fast_slow,
+    any_avx2_fast_slow
+);
+entry_points!(
+    Fast<Avx512>,
+    [#[target_feature(enable = "avx2,fma,avx512f,avx512vl")]],
+    closest_hit_avx512_fast,
+    any_hit_avx512_fast,
+    closest_avx512_fast_slow,
+    any_avx512_fast_slow
+);

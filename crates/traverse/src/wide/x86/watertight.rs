@@ -158,7 +158,7 @@ unsafe fn t_scaled(e: &Edges, z: [__m128; 3]) -> __m128 {
 /// [`slab_span`]: sahara_geom::intersect::slab_span
 /// [`clamp_to_span`]: sahara_geom::intersect::clamp_to_span
 #[inline(always)]
-unsafe fn accept4<const NEG: bool>(
+pub(super) unsafe fn accept4<const NEG: bool>(
     p: &TriPacket,
     r: &SseRay,
     t: __m128,
