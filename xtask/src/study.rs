@@ -608,7 +608,7 @@ fn work(
 ) -> Result<Vec<f64>> {
     let mut out = Vec::new();
     for layout in LAYOUTS {
-        let tracer = crate::trace_cmd::make_tracer(layout, &tree.bvh, tris)?;
+        let tracer = crate::trace::make_tracer(layout, &tree.bvh, tris)?;
         for set in sets {
             let c = util::with_threads(threads, || {
                 sahara_trace::trace_set_counted(tracer.as_ref(), set)
@@ -668,8 +668,8 @@ fn speed(
 ) -> Result<Vec<SpeedCell>> {
     let mut out = Vec::new();
     for layout in LAYOUTS {
-        let a = crate::trace_cmd::make_tracer(layout, &tree.bvh, tris)?;
-        let r = crate::trace_cmd::make_tracer(layout, &reference.bvh, tris)?;
+        let a = crate::trace::make_tracer(layout, &tree.bvh, tris)?;
+        let r = crate::trace::make_tracer(layout, &reference.bvh, tris)?;
         for set in sets {
             let cell = util::with_threads(threads, || {
                 let time = |t: &dyn Tracer| {
@@ -868,7 +868,7 @@ pub fn run(a: Args) -> Result<()> {
                 let reference = &refs[&rkey];
                 let tracer = sahara_trace::Bvh2Tracer::new(&reference.bvh, tris);
                 let camera = match s.camera {
-                    CameraKind::Catalog => crate::trace_cmd::trace_camera(&scene.camera),
+                    CameraKind::Catalog => crate::trace::trace_camera(&scene.camera),
                     CameraKind::Outside => outside_camera(tris, &scene.camera),
                 };
                 let eye_inside = inside(tris, camera.eye);

@@ -210,7 +210,7 @@ mod tests {
             .build(&input)
             .unwrap();
         let reference = Bvh2Tracer::new(&bvh, &scene.triangles);
-        let cam = crate::trace_cmd::trace_camera(&scene.camera);
+        let cam = crate::trace::trace_camera(&scene.camera);
         for quality in [Quality::Build, Quality::BuildHq] {
             let engine = TinyTracer::new(&scene.triangles, quality).unwrap();
             for kind in RayKind::ALL {

@@ -16,8 +16,8 @@ mod predict;
 mod report;
 pub mod saved_study;
 
-use crate::bvh_cmd::{build_and_measure, BuildReport};
-use crate::trace_cmd::{self, TraceReport};
+use crate::bvh::{build_and_measure, BuildReport};
+use crate::trace::{self, TraceReport};
 use crate::util;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -53,7 +53,7 @@ pub struct Args {
     pub layouts: Vec<String>,
     /// SIMD kernels of bvh4/bvh8: portable, sse2, avx2 or avx512 (default: the best this CPU
     /// runs; a backend the CPU lacks is an error). Embree gets the matching `isa=`.
-    #[arg(long, value_parser = trace_cmd::parse_backend_arg)]
+    #[arg(long, value_parser = trace::parse_backend_arg)]
     pub backend: Option<sahara_trace::Backend>,
     /// Output folder (default: target/eval/<date>).
     #[arg(long)]
@@ -316,7 +316,7 @@ impl Args {
             builders,
             rays: self.rays.clone(),
             layouts: if self.layouts.is_empty() {
-                trace_cmd::layouts()
+                trace::layouts()
                     .iter()
                     .filter(|l| full || DEFAULT_LAYOUTS.contains(l))
                     .map(|s| s.to_string())
@@ -402,7 +402,7 @@ pub fn run(a: Args) -> Result<()> {
         .collect::<Result<_>>()?;
     for l in &s.layouts {
         anyhow::ensure!(
-            trace_cmd::layouts().contains(&l.as_str()),
+            trace::layouts().contains(&l.as_str()),
             "unknown layout '{l}'"
         );
     }
@@ -459,7 +459,7 @@ pub fn run(a: Args) -> Result<()> {
         // Ray sets from the reference tree: identical for every tree (deterministic hits).
         let reference = &trees[0].1;
         let ref_tracer = sahara_trace::Bvh2Tracer::new(reference, &scene.triangles);
-        let camera = trace_cmd::trace_camera(&scene.camera);
+        let camera = trace::trace_camera(&scene.camera);
         let sets: Vec<RaySet> = util::with_threads(a.threads, || {
             kinds
                 .iter()
@@ -512,7 +512,7 @@ pub fn run(a: Args) -> Result<()> {
                 trees
                     .iter()
                     .map(|(_, bvh)| {
-                        trace_cmd::make_tracer_with(layout, bvh, &scene.triangles, a.backend())
+                        trace::make_tracer_with(layout, bvh, &scene.triangles, a.backend())
                     })
                     .collect::<Result<_>>()
             })
@@ -521,7 +521,7 @@ pub fn run(a: Args) -> Result<()> {
         // such a layout traces the same tree of the engine's own): each is traced once, and
         // its figures fill every builder's row.
         let timed_trees = |layout: &str| {
-            if trace_cmd::is_foreign(layout) {
+            if trace::is_foreign(layout) {
                 1
             } else {
                 trees.len()
@@ -576,12 +576,12 @@ pub fn run(a: Args) -> Result<()> {
                     if shared && shared_counts.is_none() {
                         shared_counts = Some(counted.clone());
                     }
-                    let rep = trace_cmd::report(
+                    let rep = trace::report(
                         &scene.name,
                         scene.triangles.len(),
                         b,
                         layout,
-                        &trace_cmd::engine_backend(layout, a.backend()),
+                        &trace::engine_backend(layout, a.backend()),
                         set,
                         a.threads,
                         timing,

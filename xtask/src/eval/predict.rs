@@ -17,7 +17,7 @@
 //! Each predictor is scored against measured time per ray and against work per ray.
 
 use super::{Settings, TraceRow, REFERENCE};
-use crate::bvh_cmd::BuildReport;
+use crate::bvh::BuildReport;
 use crate::util::LoadedScene;
 use anyhow::Result;
 use sahara_bvh::Bvh;

@@ -1056,11 +1056,11 @@ mod tests {
     //! xtask golden_report`) in the same commit, and the diff of the recorded files shows it.
 
     use super::*;
-    use crate::bvh_cmd::BuildReport;
+    use crate::bvh::BuildReport;
     use crate::eval::predict::{PredictedPoint, PredictorRow};
     use crate::eval::{file_stem, Meta, SceneInfo, Settings};
     use crate::scaling::Series;
-    use crate::trace_cmd::TraceReport;
+    use crate::trace::TraceReport;
     use crate::util::Spread;
     use sahara_metrics::{CostModel, ForecastReport};
     use sahara_trace::{Throughput, Timing, WorkPerRay};

@@ -1,4 +1,4 @@
-//! `cargo xtask bvh` and `cargo xtask builders`.
+//! `cargo xtask bvh`: build a tree, report its build time, shape and memory.
 
 use crate::util::{self, Spread};
 use anyhow::Result;
@@ -225,17 +225,6 @@ pub fn run(a: Args) -> Result<()> {
             mem.bvh4_bytes_per_triangle,
             mem.bvh8_bytes_per_triangle
         );
-    }
-    Ok(())
-}
-
-pub fn list_builders() -> Result<()> {
-    println!("{:<18} {:<8} description / configuration", "name", "kind");
-    for e in sahara_builders::registry::entries() {
-        let b = (e.make)();
-        let kind = if e.spatial { "spatial" } else { "object" };
-        println!("{:<18} {:<8} {}", e.name, kind, e.summary);
-        println!("{:<18} {:<8} {}", "", "", b.describe());
     }
     Ok(())
 }
