@@ -81,7 +81,7 @@ impl Engine {
 }
 
 #[cfg(feature = "embree")]
-type Timer = crate::embree::BuildTimer;
+type Timer = crate::engine::embree::BuildTimer;
 #[cfg(not(feature = "embree"))]
 type Timer = ();
 
@@ -91,7 +91,7 @@ fn embree_timer(threads: usize, wanted: bool) -> Result<Option<Timer>> {
     }
     #[cfg(feature = "embree")]
     {
-        Ok(Some(crate::embree::BuildTimer::new(threads)?))
+        Ok(Some(crate::engine::embree::BuildTimer::new(threads)?))
     }
     #[cfg(not(feature = "embree"))]
     {
@@ -120,7 +120,7 @@ fn time_embree(timer: &Option<Timer>, tris: &[sahara_geom::Triangle], quality: u
 
 #[cfg(feature = "embree")]
 fn quality_of(name: &str) -> Result<u8> {
-    crate::embree::parse_quality(name)
+    crate::engine::embree::parse_quality(name)
 }
 
 #[cfg(not(feature = "embree"))]

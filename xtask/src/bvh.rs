@@ -1,8 +1,8 @@
 //! `cargo xtask bvh`: build a tree, report its build time, shape and memory.
 
-use crate::util::{self, Spread};
+use crate::tree::{self, BuildReport, MemoryReport};
+use crate::util;
 use anyhow::Result;
-use sahara_builders::{BuildInput, CostModel};
 use serde::Serialize;
 
 #[derive(clap::Args)]
@@ -34,135 +34,12 @@ pub struct Args {
     force: bool,
 }
 
-/// The JSON record of one build (its fields are a contract: `docs/command-line.md`).
-#[derive(Clone, Debug, Serialize)]
-pub struct BuildReport {
-    pub scene: String,
-    pub triangles: usize,
-    pub builder: String,
-    pub config: String,
-    pub threads: usize,
-    pub build_ms: Spread,
-    pub sah: f64,
-    pub epo: Option<f64>,
-    pub nodes: usize,
-    pub leaves: usize,
-    pub references: usize,
-    pub max_leaf: usize,
-    pub depth: usize,
-}
-
-/// The memory figures of `bvh --json` (field `memory`): exact heap bytes from the xtask's
-/// counting allocator ([`crate::alloc_count`]) and the sizes of the traversal layouts.
-#[derive(Clone, Debug, Serialize)]
-pub struct MemoryReport {
-    /// Heap bytes the `BuildInput` (primitive boxes and centroids) allocated.
-    pub input_bytes: usize,
-    /// The most heap bytes the build held at once above what was live when it started (its
-    /// working memory and the tree it returns), the largest over the timed builds.
-    pub peak_build_bytes: usize,
-    /// `peak_build_bytes` per triangle.
-    pub peak_build_bytes_per_triangle: f64,
-    /// Bytes per triangle of the binary tree (32-byte nodes and 4-byte references).
-    pub bvh2_bytes_per_triangle: f64,
-    /// Bytes per triangle of the 4-wide layout (nodes and 4-triangle leaf packets).
-    pub bvh4_bytes_per_triangle: f64,
-    /// Bytes per triangle of the 8-wide layout (nodes and 4-triangle leaf packets).
-    pub bvh8_bytes_per_triangle: f64,
-}
-
 /// The record of `bvh --json`: the build's fields and, under `memory`, its memory figures.
 #[derive(Clone, Debug, Serialize)]
 pub struct BvhJson {
     #[serde(flatten)]
     pub build: BuildReport,
     pub memory: MemoryReport,
-}
-
-/// Builds `runs` times on `threads` threads and measures the last tree.
-pub fn build_and_measure(
-    scene: &str,
-    tris: &[sahara_geom::Triangle],
-    builder_name: &str,
-    threads: Option<usize>,
-    runs: usize,
-    with_epo: bool,
-) -> Result<(BuildReport, sahara_bvh::Bvh)> {
-    let (r, bvh, _, _) = build_measure_memory(scene, tris, builder_name, threads, runs, with_epo)?;
-    Ok((r, bvh))
-}
-
-/// [`build_and_measure`], also returning the input's heap bytes and the build's peak heap
-/// bytes (see [`MemoryReport`]).
-pub fn build_measure_memory(
-    scene: &str,
-    tris: &[sahara_geom::Triangle],
-    builder_name: &str,
-    threads: Option<usize>,
-    runs: usize,
-    with_epo: bool,
-) -> Result<(BuildReport, sahara_bvh::Bvh, usize, usize)> {
-    let builder = util::builder(builder_name)?;
-    let cost = CostModel::default();
-    let before_input = crate::alloc_count::reset_peak();
-    let input = BuildInput::new(tris, cost)?;
-    let input_bytes = crate::alloc_count::live().saturating_sub(before_input);
-    let mut peak = 0usize;
-    let (times, bvh) = util::with_threads(threads, || {
-        util::time_runs(runs, || {
-            let base = crate::alloc_count::reset_peak();
-            let r = builder.build(&input);
-            peak = peak.max(crate::alloc_count::peak().saturating_sub(base));
-            r
-        })
-    })?;
-    let bvh = bvh?;
-    let stats = bvh.stats();
-    let epo = if with_epo {
-        Some(util::with_threads(threads, || {
-            sahara_metrics::epo(&bvh, tris, &cost)
-        })?)
-    } else {
-        None
-    };
-    let report = BuildReport {
-        scene: scene.to_string(),
-        triangles: tris.len(),
-        builder: builder_name.to_string(),
-        config: builder.describe(),
-        threads: util::with_threads(threads, rayon::current_num_threads)?,
-        build_ms: Spread::of(&times).map(|s| s * 1e3),
-        sah: sahara_metrics::sah(&bvh, &cost),
-        epo,
-        nodes: stats.nodes,
-        leaves: stats.leaves,
-        references: stats.references,
-        max_leaf: stats.max_leaf,
-        depth: stats.depth,
-    };
-    Ok((report, bvh, input_bytes, peak))
-}
-
-/// The memory figures of a build (see [`MemoryReport`]).
-pub fn memory_report(
-    bvh: &sahara_bvh::Bvh,
-    tris: &[sahara_geom::Triangle],
-    input_bytes: usize,
-    peak_build_bytes: usize,
-) -> MemoryReport {
-    let per = |bytes: usize| bytes as f64 / tris.len().max(1) as f64;
-    let bvh2 = bvh.nodes.len() * std::mem::size_of::<sahara_bvh::Node>()
-        + bvh.prim_indices.len() * std::mem::size_of::<u32>();
-    let bvh4 = sahara_traverse::wide::WideBvh::<4>::from_bvh(bvh, tris).memory_bytes();
-    let bvh8 = sahara_traverse::wide::WideBvh::<8>::from_bvh(bvh, tris).memory_bytes();
-    MemoryReport {
-        input_bytes,
-        peak_build_bytes,
-        peak_build_bytes_per_triangle: per(peak_build_bytes),
-        bvh2_bytes_per_triangle: per(bvh2),
-        bvh4_bytes_per_triangle: per(bvh4),
-        bvh8_bytes_per_triangle: per(bvh8),
-    }
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -180,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
             scene.triangles.len()
         );
     }
-    let (r, bvh, input_bytes, peak) = build_measure_memory(
+    let (r, bvh, input_bytes, peak) = tree::build_measure_memory(
         &scene.name,
         &scene.triangles,
         &a.builder,
@@ -192,7 +69,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(path) = &a.save {
         bvh.save_to_path(path)?;
     }
-    let mem = memory_report(&bvh, &scene.triangles, input_bytes, peak);
+    let mem = tree::memory_report(&bvh, &scene.triangles, input_bytes, peak);
     if a.json {
         let j = BvhJson {
             build: r,

@@ -1,33 +1,32 @@
 //! `cargo xtask`: the project's tasks (see README.md and the command-line contract in
 //! `docs/command-line.md`).
 
-mod alloc_count;
+// The commands, one module each, named after the command (`reinsert-rays`: `reinsert_rays`).
+// None uses another (`tidy::no_command_module_uses_another`).
 mod build_bench;
 mod builders;
 mod bvh;
-#[cfg(feature = "embree")]
-mod embree;
-#[cfg(feature = "embree")]
-mod embree_tree;
 mod eval;
 mod hardcases;
 mod measure;
-#[cfg(feature = "obvhs")]
-mod obvhs;
 mod oracle;
 mod package;
-mod peers;
 mod reinsert_rays;
 mod scaling;
 mod scenes;
 mod study;
+mod trace;
+mod verify;
+
+// What the commands share; none of these is a command, nor uses one.
+mod alloc_count;
+mod engine;
+mod interval;
+mod tree;
+mod util;
+
 #[cfg(test)]
 mod tidy;
-#[cfg(feature = "tinybvh")]
-mod tinybvh;
-mod trace;
-mod util;
-mod verify;
 
 use clap::{Parser, Subcommand};
 

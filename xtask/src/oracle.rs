@@ -94,7 +94,7 @@ pub fn run(a: Args) -> Result<()> {
             let oracle = oracle_for(tris);
             let bvh = sweep(tris)?;
             let tracer = Bvh2Tracer::new(&bvh, tris);
-            let camera = crate::trace::trace_camera(&scene.camera);
+            let camera = crate::engine::trace_camera(&scene.camera);
             for kind in [
                 RayKind::Primary,
                 RayKind::Diffuse,

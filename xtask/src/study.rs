@@ -16,7 +16,9 @@
 //! `README.md`, rendered from the CSV alone by [`render_markdown`] (the eval report can call it
 //! on the latest saved CSV instead of rerunning the study; `--render <csv>` re-renders).
 
-use crate::eval::interval::{median_interval, Interval};
+use crate::engine::Engine;
+use crate::interval::{median_interval, Interval};
+use crate::util::geomean;
 use anyhow::{bail, Context, Result};
 use sahara_builders::popov::{PopovBuilder, PopovConfig};
 use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
@@ -25,7 +27,7 @@ use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_builders::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_builders::{BuildInput, Builder, CostModel};
 use sahara_geom::Vec3A;
-use sahara_trace::{RayKind, RaySet, Tracer};
+use sahara_trace::{Backend, RayKind, RaySet, Tracer};
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -566,7 +568,7 @@ const KINDS: [RayKind; 3] = [
     RayKind::Diffuse,
     RayKind::AmbientOcclusion,
 ];
-const LAYOUTS: [&str; 2] = ["bvh2", "bvh8"];
+const LAYOUTS: [Engine; 2] = [Engine::Bvh2, Engine::Bvh8];
 
 /// A built tree with its measurements.
 struct Tree {
@@ -608,7 +610,7 @@ fn work(
 ) -> Result<Vec<f64>> {
     let mut out = Vec::new();
     for layout in LAYOUTS {
-        let tracer = crate::trace::make_tracer(layout, &tree.bvh, tris)?;
+        let tracer = layout.tracer(&tree.bvh, tris, Backend::best())?;
         for set in sets {
             let c = util::with_threads(threads, || {
                 sahara_trace::trace_set_counted(tracer.as_ref(), set)
@@ -668,8 +670,8 @@ fn speed(
 ) -> Result<Vec<SpeedCell>> {
     let mut out = Vec::new();
     for layout in LAYOUTS {
-        let a = crate::trace::make_tracer(layout, &tree.bvh, tris)?;
-        let r = crate::trace::make_tracer(layout, &reference.bvh, tris)?;
+        let a = layout.tracer(&tree.bvh, tris, Backend::best())?;
+        let r = layout.tracer(&reference.bvh, tris, Backend::best())?;
         for set in sets {
             let cell = util::with_threads(threads, || {
                 let time = |t: &dyn Tracer| {
@@ -745,36 +747,6 @@ fn inside(tris: &[sahara_geom::Triangle], p: Vec3A) -> bool {
     b.contains_point(p)
 }
 
-fn out_dir(a: &Args) -> PathBuf {
-    if let Some(o) = &a.out {
-        return o.clone();
-    }
-    let root = sahara_scene::workspace_root().unwrap_or_else(|| PathBuf::from("."));
-    let date = utc_date();
-    let suffix = if a.quick { "-study-quick" } else { "-study" };
-    root.join("docs")
-        .join("results")
-        .join(format!("{date}{suffix}"))
-}
-
-/// Today's UTC date, `YYYY-MM-DD` (civil-from-days of Howard Hinnant).
-fn utc_date() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
-    let z = (secs / 86_400) as i64 + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02}")
-}
-
 fn csv_field(s: &str) -> String {
     s.replace([',', '\n'], ";")
 }
@@ -816,7 +788,12 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         a.scenes.clone()
     };
-    let out = out_dir(&a);
+    let suffix = if a.quick { "-study-quick" } else { "-study" };
+    let out = util::out_dir(
+        a.out.as_deref(),
+        "docs/results",
+        &format!("{}{suffix}", util::utc_date()),
+    );
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let csv_path = out.join("study.csv");
     let mut csv = COLUMNS.join(",") + "\n";
@@ -868,7 +845,7 @@ pub fn run(a: Args) -> Result<()> {
                 let reference = &refs[&rkey];
                 let tracer = sahara_trace::Bvh2Tracer::new(&reference.bvh, tris);
                 let camera = match s.camera {
-                    CameraKind::Catalog => crate::trace::trace_camera(&scene.camera),
+                    CameraKind::Catalog => crate::engine::trace_camera(&scene.camera),
                     CameraKind::Outside => outside_camera(tris, &scene.camera),
                 };
                 let eye_inside = inside(tris, camera.eye);
@@ -1004,10 +981,6 @@ impl Row<'_> {
         let (a, r) = (self.x(k)?, self.x(&format!("ref_{k}"))?);
         (a > 0.0 && r > 0.0).then(|| r / a)
     }
-}
-
-fn geomean(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
 }
 
 /// Renders a study CSV (as written by `cargo xtask study`) as markdown: one table per factor,

@@ -7,6 +7,8 @@
 //!   metrics never mutate trees, traversal never knows the builder;
 //! * the builder registry: unique names, each builder reporting its registered name;
 //! * the code map names every crate and every top-level module;
+//! * the xtask's commands: one module per command, named after it, none using another, and
+//!   the shared modules using none;
 //! * no absolute machine paths in tracked files;
 //! * every crate README with a Rust example is compiled as a doctest.
 
@@ -697,6 +699,142 @@ fn library_crates_are_publishable() {
         .any(|l| l.trim_start().starts_with("repository"))
     {
         errors.push("Cargo.toml: remove `repository` from [workspace.package]".to_string());
+    }
+    assert!(errors.is_empty(), "\n{}\n", errors.join("\n"));
+}
+
+/// The xtask's commands from `xtask/src/main.rs`: (subcommand variant, module), one per arm
+/// `Cmd::Variant… => module::…` of its dispatch.
+fn xtask_commands() -> Vec<(String, String)> {
+    let main = read(&root().join("xtask/src/main.rs"));
+    let mut v = Vec::new();
+    for (_, line) in code_lines(&main) {
+        let Some((arm, call)) = line.split_once("=>") else {
+            continue;
+        };
+        let Some(variant) = arm.trim().strip_prefix("Cmd::") else {
+            continue;
+        };
+        let variant: String = variant.chars().take_while(|&c| is_ident_char(c)).collect();
+        let module: String = call
+            .trim()
+            .chars()
+            .take_while(|&c| is_ident_char(c))
+            .collect();
+        if call.trim()[module.len()..].starts_with("::") {
+            v.push((variant, module));
+        }
+    }
+    v
+}
+
+/// `CamelCase` as `snake_case`.
+fn snake_case(name: &str) -> String {
+    let mut s = String::new();
+    for (i, c) in name.chars().enumerate() {
+        if c.is_uppercase() && i > 0 {
+            s.push('_');
+        }
+        s.extend(c.to_lowercase());
+    }
+    s
+}
+
+/// The top-level modules a source names through `crate::` paths: `crate::m::…`, and each
+/// first name of a group `crate::{a, b::c, …}` (comments left out).
+fn crate_paths(src: &str) -> BTreeSet<String> {
+    let code: String = code_lines(src).into_iter().map(|(_, l)| l + "\n").collect();
+    let mut used = BTreeSet::new();
+    for (at, _) in code.match_indices("crate::") {
+        if code[..at].chars().next_back().is_some_and(is_ident_char) {
+            continue; // `sahara_crate::` and the like
+        }
+        let rest = &code[at + "crate::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 0usize;
+            let mut item = String::new();
+            let mut items = Vec::new();
+            for c in group.chars() {
+                match c {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => items.push(std::mem::take(&mut item)),
+                    _ if depth == 0 => item.push(c),
+                    _ => {}
+                }
+            }
+            items.push(item);
+            for i in items {
+                let name: String = i.trim().chars().take_while(|&c| is_ident_char(c)).collect();
+                if !name.is_empty() {
+                    used.insert(name);
+                }
+            }
+        } else {
+            let name: String = rest.chars().take_while(|&c| is_ident_char(c)).collect();
+            used.insert(name);
+        }
+    }
+    used
+}
+
+#[test]
+fn crate_paths_are_read_from_uses_and_groups() {
+    let src = "use crate::{engine::{self, Engine}, util};\nuse crate::tree::Series; // crate::eval\nlet x = crate::trace::run(a);\n";
+    let want: BTreeSet<String> = ["engine", "trace", "tree", "util"].map(String::from).into();
+    assert_eq!(crate_paths(src), want);
+    assert_eq!(snake_case("ReinsertRays"), "reinsert_rays");
+}
+
+#[test]
+fn no_command_module_uses_another() {
+    let src = root().join("xtask/src");
+    let commands = xtask_commands();
+    let mut errors = Vec::new();
+    assert!(
+        commands.len() >= 10,
+        "xtask/src/main.rs: the dispatch `Cmd::… => module::run(…)` was not found ({commands:?})"
+    );
+    for (variant, module) in &commands {
+        if snake_case(variant) != *module {
+            errors.push(format!(
+                "xtask/src/main.rs: the command `{variant}` runs in the module `{module}`; name \
+                 the module after the command (`{}`), with no suffix (docs/ARCHITECTURE.md, \
+                 xtask)",
+                snake_case(variant)
+            ));
+        }
+    }
+    let is_command = |m: &str| commands.iter().any(|(_, c)| c == m);
+    // This file is a test, not a module of the program (and its examples name commands).
+    for m in top_level_modules(&src).into_iter().filter(|m| m != "tidy") {
+        let files = if src.join(&m).is_dir() {
+            rust_files(&src.join(&m))
+        } else {
+            vec![src.join(format!("{m}.rs"))]
+        };
+        for f in files {
+            for used in crate_paths(&read(&f)) {
+                if used == m || !is_command(&used) {
+                    continue;
+                }
+                errors.push(if is_command(&m) {
+                    format!(
+                        "{}: the command module `{m}` uses the command module `{used}`; move \
+                         what both need into a shared module (`util`, `engine`, `tree`, …; \
+                         docs/ARCHITECTURE.md, xtask)",
+                        rel(&f)
+                    )
+                } else {
+                    format!(
+                        "{}: the shared module `{m}` uses the command module `{used}`; shared \
+                         modules use no command (docs/ARCHITECTURE.md, xtask)",
+                        rel(&f)
+                    )
+                });
+            }
+        }
     }
     assert!(errors.is_empty(), "\n{}\n", errors.join("\n"));
 }

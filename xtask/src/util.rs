@@ -1,7 +1,9 @@
-//! Helpers shared by the subcommands: thread pools, timing statistics, scene loading.
+//! Helpers shared by the commands: thread pools, timing statistics, CPU time, the machine and
+//! commit of a run, output folders and dates, geometric means and file names, scene loading.
 
 use anyhow::{Context, Result};
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Runs `f` in a rayon pool of `threads` threads (all cores when `None`).
@@ -107,16 +109,94 @@ pub fn git_commit() -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
+/// The output folder of a run: `given` (`--out`), else `<workspace>/<folder>/<name>`.
+pub fn out_dir(given: Option<&Path>, folder: &str, name: &str) -> PathBuf {
+    if let Some(o) = given {
+        return o.to_path_buf();
+    }
+    let root = sahara_scene::workspace_root().unwrap_or_else(|| PathBuf::from("."));
+    root.join(folder).join(name)
+}
+
+/// Seconds since 1970-01-01 UTC, from the system clock.
+fn unix_seconds() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0)
+}
+
+/// Now, `YYYY-MM-DDTHH-MM-SS` in UTC (no date crate needed).
+pub fn utc_stamp() -> String {
+    let secs = unix_seconds();
+    let rem = secs % 86_400;
+    format!(
+        "{}T{:02}-{:02}-{:02}",
+        civil_date(secs / 86_400),
+        rem / 3600,
+        (rem / 60) % 60,
+        rem % 60
+    )
+}
+
+/// Today's UTC date, `YYYY-MM-DD`.
+pub fn utc_date() -> String {
+    civil_date(unix_seconds() / 86_400)
+}
+
+/// The civil date `YYYY-MM-DD` of a day counted from 1970-01-01 (Howard Hinnant's
+/// civil-from-days).
+fn civil_date(days: u64) -> String {
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+/// Geometric mean of the positive, finite values of `v`; `None` when there is none.
+pub fn geomean(v: &[f64]) -> Option<f64> {
+    let v: Vec<f64> = v
+        .iter()
+        .copied()
+        .filter(|x| *x > 0.0 && x.is_finite())
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    Some((v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
+}
+
+/// `name` with every character other than ASCII letters, digits, `-` and `_` replaced by `_`,
+/// for file names.
+pub fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
 /// Builds the registry preset `name`.
 pub fn builder(name: &str) -> Result<Box<dyn sahara_builders::Builder>> {
     // obvhs's PLOC tree, converted (feature `obvhs`; not in the builders' registry).
     #[cfg(feature = "obvhs")]
-    if name == crate::obvhs::PLOC_NAME {
-        return Ok(Box::new(crate::obvhs::PlocBuilder));
+    if name == crate::engine::obvhs::PLOC_NAME {
+        return Ok(Box::new(crate::engine::obvhs::PlocBuilder));
     }
     // Embree's binned and spatial-split trees, converted (feature `embree`).
     #[cfg(feature = "embree")]
-    if let Some(b) = crate::embree_tree::EmbreeTreeBuilder::by_name(name) {
+    if let Some(b) = crate::engine::embree_tree::EmbreeTreeBuilder::by_name(name) {
         return Ok(Box::new(b));
     }
     sahara_builders::registry::by_name(name).with_context(|| {
@@ -210,4 +290,24 @@ pub fn placed_camera(tris: &[sahara_geom::Triangle]) -> Result<(sahara_scene::Ca
 /// Parses `--camera` (`eye=x,y,z target=x,y,z up=x,y,z fov=deg`) for clap.
 pub fn parse_camera(s: &str) -> std::result::Result<sahara_scene::Camera, String> {
     s.parse::<sahara_scene::Camera>().map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_date(0), "1970-01-01");
+        assert_eq!(civil_date(59), "1970-03-01");
+        assert_eq!(civil_date(11_016), "2000-02-29");
+        assert_eq!(civil_date(20_794), "2026-12-07");
+    }
+
+    #[test]
+    fn geometric_means_skip_what_has_no_logarithm() {
+        assert_eq!(geomean(&[]), None);
+        assert_eq!(geomean(&[0.0, -1.0, f64::NAN]), None);
+        assert!((geomean(&[2.0, 8.0, 0.0]).unwrap() - 4.0).abs() < 1e-12);
+    }
 }

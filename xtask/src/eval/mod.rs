@@ -10,15 +10,15 @@
 
 #[cfg(test)]
 mod browser_test;
-pub mod interval;
 mod plot;
 mod predict;
 mod report;
 pub mod saved_study;
 
-use crate::bvh::{build_and_measure, BuildReport};
-use crate::trace::{self, TraceReport};
-use crate::util;
+use crate::engine::{self, Engine, TraceReport};
+use crate::interval;
+use crate::tree::{self, build_and_measure, BuildReport};
+use crate::util::{self, file_stem};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use sahara_trace::{RayKind, RaySet};
@@ -50,10 +50,10 @@ pub struct Args {
     /// Layouts to trace (and foreign engines, with their features: embree, tinybvh,
     /// tinybvh-hq, obvhs).
     #[arg(long, value_delimiter = ',')]
-    pub layouts: Vec<String>,
+    pub layouts: Vec<Engine>,
     /// SIMD kernels of bvh4/bvh8: portable, sse2, avx2 or avx512 (default: the best this CPU
     /// runs; a backend the CPU lacks is an error). Embree gets the matching `isa=`.
-    #[arg(long, value_parser = trace::parse_backend_arg)]
+    #[arg(long, value_parser = engine::parse_backend_arg)]
     pub backend: Option<sahara_trace::Backend>,
     /// Output folder (default: target/eval/<date>).
     #[arg(long)]
@@ -94,7 +94,7 @@ pub struct Settings {
     pub scenes: Vec<String>,
     pub builders: Vec<String>,
     pub rays: Vec<String>,
-    pub layouts: Vec<String>,
+    pub layouts: Vec<Engine>,
     /// The backend of the bvh4/bvh8 kernels (`--backend`), also matched by Embree's ISA.
     pub backend: String,
     pub width: u32,
@@ -178,7 +178,7 @@ pub struct Results {
     pub traces: Vec<TraceRow>,
     pub predictors: Vec<predict::PredictorRow>,
     pub predicted_points: Vec<predict::PredictedPoint>,
-    pub scaling: Vec<crate::scaling::Series>,
+    pub scaling: Vec<tree::Series>,
     /// The study's claims table and its saved run (read from `docs/`, not recomputed).
     pub study: Option<saved_study::SavedStudy>,
 }
@@ -232,15 +232,18 @@ const QUICK_BUILDERS: &[&str] = &["sweep", "sbvh", "binned", "tsah-topk", "hybri
 
 /// The layouts of the default and quick matrices: the binary kernel (the paper's comparison)
 /// and the 8-wide one (the headline: what users run); `--full` traces every layout.
-const DEFAULT_LAYOUTS: &[&str] = &["bvh2", "bvh8", "embree", "tinybvh", "tinybvh-hq", "obvhs"];
+const DEFAULT_LAYOUTS: &[Engine] = &[
+    Engine::Bvh2,
+    Engine::Bvh8,
+    Engine::Embree,
+    Engine::Tinybvh,
+    Engine::TinybvhHq,
+    Engine::Obvhs,
+];
 
 fn default_builders(quick: bool, full: bool) -> Vec<String> {
     if full {
-        return sahara_builders::registry::entries()
-            .into_iter()
-            .filter(|e| !e.small_inputs_only)
-            .map(|e| e.name.to_string())
-            .collect();
+        return tree::builders_for_large_inputs();
     }
     let list = if quick {
         QUICK_BUILDERS
@@ -254,13 +257,13 @@ fn default_builders(quick: bool, full: bool) -> Vec<String> {
 }
 
 /// The layout whose speed the summary reports: `bvh8` when traced, else the first.
-pub fn headline_layout(layouts: &[String]) -> String {
+pub fn headline_layout(layouts: &[Engine]) -> Engine {
     layouts
         .iter()
-        .find(|l| *l == "bvh8")
+        .find(|l| **l == Engine::Bvh8)
         .or(layouts.first())
-        .cloned()
-        .unwrap_or_else(|| "bvh2".into())
+        .copied()
+        .unwrap_or(Engine::Bvh2)
 }
 
 /// True when `builder` splits triangles: the registry's `spatial` flag, or Embree's
@@ -316,10 +319,9 @@ impl Args {
             builders,
             rays: self.rays.clone(),
             layouts: if self.layouts.is_empty() {
-                trace::layouts()
-                    .iter()
+                Engine::built()
+                    .into_iter()
                     .filter(|l| full || DEFAULT_LAYOUTS.contains(l))
-                    .map(|s| s.to_string())
                     .collect()
             } else {
                 self.layouts.clone()
@@ -348,50 +350,10 @@ fn pick<T>(quick: bool, full: bool, q: T, default: T, f: T) -> T {
     }
 }
 
-fn out_dir(a: &Args) -> PathBuf {
-    if let Some(o) = &a.out {
-        return o.clone();
-    }
-    let root = sahara_scene::workspace_root().unwrap_or_else(|| PathBuf::from("."));
-    let stamp = chrono_like_stamp();
-    root.join("target").join("eval").join(stamp)
-}
-
-/// `YYYY-MM-DDTHH-MM-SS` in UTC, from the system clock (no date crate needed).
-fn chrono_like_stamp() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
-    let days = secs / 86_400;
-    let rem = secs % 86_400;
-    let (y, m, d) = civil_from_days(days as i64);
-    format!(
-        "{y:04}-{m:02}-{d:02}T{:02}-{:02}-{:02}",
-        rem / 3600,
-        (rem / 60) % 60,
-        rem % 60
-    )
-}
-
-/// Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
-fn civil_from_days(z: i64) -> (i64, u32, u32) {
-    let z = z + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let y = yoe + era * 400;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    (if m <= 2 { y + 1 } else { y }, m, d)
-}
-
 pub fn run(a: Args) -> Result<()> {
     let t0 = std::time::Instant::now();
     let s = a.settings();
-    let out = out_dir(&a);
+    let out = util::out_dir(a.out.as_deref(), "target/eval", &util::utc_stamp());
     std::fs::create_dir_all(out.join("images"))
         .with_context(|| format!("creating {}", out.display()))?;
     std::fs::create_dir_all(out.join("plots"))?;
@@ -401,10 +363,7 @@ pub fn run(a: Args) -> Result<()> {
         .map(|r| r.parse::<RayKind>().map_err(|e| anyhow::anyhow!("{e}")))
         .collect::<Result<_>>()?;
     for l in &s.layouts {
-        anyhow::ensure!(
-            trace::layouts().contains(&l.as_str()),
-            "unknown layout '{l}'"
-        );
+        anyhow::ensure!(l.is_built(), "unknown layout '{l}'");
     }
     for b in &s.builders {
         util::builder(b)?;
@@ -459,7 +418,7 @@ pub fn run(a: Args) -> Result<()> {
         // Ray sets from the reference tree: identical for every tree (deterministic hits).
         let reference = &trees[0].1;
         let ref_tracer = sahara_trace::Bvh2Tracer::new(reference, &scene.triangles);
-        let camera = trace::trace_camera(&scene.camera);
+        let camera = engine::trace_camera(&scene.camera);
         let sets: Vec<RaySet> = util::with_threads(a.threads, || {
             kinds
                 .iter()
@@ -511,17 +470,15 @@ pub fn run(a: Args) -> Result<()> {
             .map(|layout| {
                 trees
                     .iter()
-                    .map(|(_, bvh)| {
-                        trace::make_tracer_with(layout, bvh, &scene.triangles, a.backend())
-                    })
+                    .map(|(_, bvh)| layout.tracer(bvh, &scene.triangles, a.backend()))
                     .collect::<Result<_>>()
             })
             .collect::<Result<_>>()?;
         // Foreign engines (Embree, tinybvh, obvhs) ignore the builders' trees (every tracer of
         // such a layout traces the same tree of the engine's own): each is traced once, and
         // its figures fill every builder's row.
-        let timed_trees = |layout: &str| {
-            if trace::is_foreign(layout) {
+        let timed_trees = |layout: &Engine| {
+            if layout.is_foreign() {
                 1
             } else {
                 trees.len()
@@ -576,18 +533,18 @@ pub fn run(a: Args) -> Result<()> {
                     if shared && shared_counts.is_none() {
                         shared_counts = Some(counted.clone());
                     }
-                    let rep = trace::report(
+                    let rep = engine::report(
                         &scene.name,
                         scene.triangles.len(),
                         b,
-                        layout,
-                        &trace::engine_backend(layout, a.backend()),
+                        *layout,
+                        &layout.backend_name(a.backend()),
                         set,
                         a.threads,
                         timing,
                         &counted,
                     );
-                    if layout == "bvh2" && set.kind == RayKind::Primary {
+                    if *layout == Engine::Bvh2 && set.kind == RayKind::Primary {
                         write_render(&out, &scene, set, &counted, &mut info)?;
                         heat.push((
                             b.clone(),
@@ -644,7 +601,7 @@ pub fn run(a: Args) -> Result<()> {
             vec![1_000, 10_000, 100_000, 1_000_000],
         );
         eprintln!("scaling: build time against N on procedural 'soup' ({sizes:?})");
-        crate::scaling::measure(
+        tree::measure_scaling(
             &s.builders,
             sahara_scene::Procedural::Soup,
             &sizes,
@@ -658,7 +615,7 @@ pub fn run(a: Args) -> Result<()> {
 
     let results = Results {
         meta: Meta {
-            date: chrono_like_stamp(),
+            date: util::utc_stamp(),
             commit: util::git_commit(),
             cpu: util::cpu_name(),
             simd: simd_backend(),
@@ -932,18 +889,6 @@ pub(crate) fn relate(rows: &mut [TraceRow]) {
 
 fn simd_backend() -> String {
     sahara_traverse::simd_backend().to_string()
-}
-
-pub fn file_stem(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 /// Points `target/eval/latest` at the new folder (a symlink, or a copy where links fail).

@@ -17,7 +17,8 @@
 //! Each predictor is scored against measured time per ray and against work per ray.
 
 use super::{Settings, TraceRow, REFERENCE};
-use crate::bvh::BuildReport;
+use crate::engine::Engine;
+use crate::tree::BuildReport;
 use crate::util::LoadedScene;
 use anyhow::Result;
 use sahara_bvh::Bvh;
@@ -79,7 +80,7 @@ pub fn evaluate(
     traces: &[TraceRow],
     s: &Settings,
 ) -> Result<(Vec<PredictorRow>, Vec<PredictedPoint>)> {
-    let layout0 = s.layouts.first().cloned().unwrap_or_else(|| "bvh2".into());
+    let layout0 = s.layouts.first().copied().unwrap_or(Engine::Bvh2).name();
     let cost = s.cost_model;
     let mut rows = Vec::new();
     let mut points = Vec::new();

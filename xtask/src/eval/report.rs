@@ -4,9 +4,9 @@
 //! The report is a list of [`Block`]s, rendered once as Markdown and once as HTML. Each section
 //! is one function appending its blocks to a [`Doc`]; [`report`] calls them in order.
 
-use super::interval::{self, Interval};
 use super::plot::{esc, fmt_num, Plot, Point};
 use super::{Results, TraceRow, REFERENCE, SPATIAL_REFERENCE};
+use crate::interval::{self, Interval};
 use anyhow::Result;
 use base64::Engine;
 use std::collections::BTreeMap;
@@ -621,7 +621,7 @@ impl<'a> Ctx<'a> {
         let s = &r.meta.settings;
         Ctx {
             r,
-            layout0: super::headline_layout(&s.layouts),
+            layout0: super::headline_layout(&s.layouts).to_string(),
             builders: s.builders.iter().map(String::as_str).collect(),
             kinds: distinct(r.traces.iter().map(|t| t.report.ray_kind.as_str())),
         }
@@ -1056,11 +1056,12 @@ mod tests {
     //! xtask golden_report`) in the same commit, and the diff of the recorded files shows it.
 
     use super::*;
-    use crate::bvh::BuildReport;
+    use crate::engine::TraceReport;
     use crate::eval::predict::{PredictedPoint, PredictorRow};
-    use crate::eval::{file_stem, Meta, SceneInfo, Settings};
-    use crate::scaling::Series;
-    use crate::trace::TraceReport;
+    use crate::eval::{Meta, SceneInfo, Settings};
+    use crate::tree::BuildReport;
+    use crate::tree::Series;
+    use crate::util::file_stem;
     use crate::util::Spread;
     use sahara_metrics::{CostModel, ForecastReport};
     use sahara_trace::{Throughput, Timing, WorkPerRay};
@@ -1089,7 +1090,7 @@ mod tests {
             scenes: vec!["cube".into(), "a<b> & c".into()],
             builders: BUILDERS.map(String::from).to_vec(),
             rays: KINDS.map(String::from).to_vec(),
-            layouts: LAYOUTS.map(String::from).to_vec(),
+            layouts: LAYOUTS.map(|l| l.parse().unwrap()).to_vec(),
             backend: "sse2".into(),
             width: 32,
             height: 24,

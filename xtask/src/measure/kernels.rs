@@ -4,7 +4,7 @@
 //! (a checksum of distances and primitives); a disagreement is an error.
 
 use super::{load, Common, Out, Row};
-use crate::{trace, util};
+use crate::{engine, util};
 use anyhow::{bail, Context, Result};
 use sahara_builders::{BuildInput, CostModel};
 use sahara_bvh::Bvh;
@@ -240,7 +240,7 @@ pub fn wide_bench(a: &WideBenchArgs) -> Result<Option<WideBenchReport>> {
         }
     };
     let bounds: Aabb = sahara_trace::scene_bounds(tris);
-    let camera = trace::trace_camera(&scene.camera);
+    let camera = engine::trace_camera(&scene.camera);
     let rays = RaySet::primary(&camera, a.width, a.height).rays;
     let hits = rays
         .iter()
@@ -365,7 +365,7 @@ pub fn kernels(a: &KernelsArgs) -> Result<Vec<KernelRow>> {
     let tris = &scene.triangles;
     let (bvh, _, _) = registered_tree(&a.builder, tris)?;
     let reference = Bvh2Tracer::new(&bvh, tris);
-    let set = trace::ray_set(&a.rays, &scene, &reference, a.width, a.height, a.seed)?;
+    let set = engine::ray_set(&a.rays, &scene, &reference, a.width, a.height, a.seed)?;
     let rays = &set.rays;
     let t0 = std::time::Instant::now();
     let w8 = Bvh8::from_bvh(&bvh, tris);
@@ -544,7 +544,7 @@ mod tests {
         let dir = temp_dir("kernels");
         let file = dir.join("primary.rays");
         let scene = util::load_scene("sphere_in_box:1000").unwrap();
-        let camera = trace::trace_camera(&scene.camera);
+        let camera = engine::trace_camera(&scene.camera);
         let rays = RaySet::primary(&camera, 10, 7).rays;
         sahara_trace::write_rays(&file, &rays).unwrap();
         let path = file.to_str().unwrap();

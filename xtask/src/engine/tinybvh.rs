@@ -210,12 +210,12 @@ mod tests {
             .build(&input)
             .unwrap();
         let reference = Bvh2Tracer::new(&bvh, &scene.triangles);
-        let cam = crate::trace::trace_camera(&scene.camera);
+        let cam = crate::engine::trace_camera(&scene.camera);
         for quality in [Quality::Build, Quality::BuildHq] {
             let engine = TinyTracer::new(&scene.triangles, quality).unwrap();
             for kind in RayKind::ALL {
                 let set = RaySet::generate(kind, &cam, 64, 48, &reference, &scene.triangles, 1);
-                let m = crate::peers::agreement(&reference, &engine, &set);
+                let m = crate::engine::peers::agreement(&reference, &engine, &set);
                 eprintln!("{}, {kind}: {m}", engine.name());
                 assert!(m.rate() < 0.01, "{} {kind}: {m}", engine.name());
                 assert!(m.rays > 100);
