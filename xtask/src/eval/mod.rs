@@ -8,22 +8,34 @@
 //! relative to the full-sweep SAH tree (and to SBVH for spatial-split builders), in measured
 //! speed and in work per ray; the SAH-EPO predictors are fitted to the measurements.
 
+//!
+//! The steps of [`run`], one function each: the settings from the flags and the matrix
+//! (`matrix.rs`), then per scene [`Run::build_trees`], [`Run::ray_sets`], [`Run::trace`]
+//! (timed rounds, `rounds.rs`; counted passes and rows; images, `images.rs`), then the
+//! predictors (`predict.rs`), the scaling section and the report (`report.rs`, `plot.rs`).
+
 #[cfg(test)]
 mod browser_test;
+mod images;
+mod matrix;
 mod plot;
 mod predict;
 mod report;
+mod rounds;
 pub mod saved_study;
 
 use crate::engine::{self, Engine, TraceReport};
 use crate::interval;
 use crate::tree::{self, build_and_measure, BuildReport};
-use crate::util::{self, file_stem};
+use crate::util::{self, LoadedScene};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use sahara_trace::{RayKind, RaySet};
+use matrix::Matrix;
+use sahara_bvh::Bvh;
+use sahara_trace::{Bvh2Tracer, RayKind, RaySet, Tracer};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 #[derive(clap::Args, Clone)]
 pub struct Args {
@@ -186,177 +198,68 @@ pub struct Results {
 const REFERENCE: &str = "sweep";
 const SPATIAL_REFERENCE: &str = "sbvh";
 
-fn default_scenes(quick: bool) -> Vec<String> {
-    if quick {
-        return [
-            "sphere_in_box:20000",
-            "teapot_stadium:20000",
-            "city:20000",
-            "hairball:10000",
-        ]
-        .map(String::from)
-        .to_vec();
-    }
-    let catalog = sahara_scene::Catalog::discover();
-    // One file per model (the engine's GLB is its OBJ's model: traced once).
-    let mut v: Vec<String> = catalog
-        .distinct_files()
-        .into_iter()
-        .map(|e| e.name.clone())
-        .collect();
-    v.extend(["sphere_in_box", "teapot_stadium", "city", "hairball"].map(String::from));
-    v
-}
+pub use images::HEAT_PERCENTILE;
+pub use matrix::headline_layout;
+pub use rounds::MIN_ROUNDS;
 
-/// The default matrix's builders, in report order: the references, the paper's builders,
-/// and the best presets of other work (reinsertion, PLOC). A name joins the run only when the
-/// registry knows it ([`sahara_builders::registry::by_name`]), so presets still under way on
-/// other branches appear by themselves once registered. Chosen to fit 20 minutes on two
-/// cores with the shared scenes (timings in `docs/evaluation.md`).
-pub const DEFAULT_BUILDERS: &[&str] = &[
-    "sweep",
-    "sbvh",
-    "binned",
-    "tsah-topk",
-    "hybrid",
-    "tsah-sbvh",
-    "ploc",
-    "sweep+reinsert",
-    "sbvh+reinsert",
-    "tsah-topk+reinsert",
-    "ploc+reinsert",
-];
-
-/// The quick matrix keeps one preset of each strategy.
-const QUICK_BUILDERS: &[&str] = &["sweep", "sbvh", "binned", "tsah-topk", "hybrid"];
-
-/// The layouts of the default and quick matrices: the binary kernel (the paper's comparison)
-/// and the 8-wide one (the headline: what users run); `--full` traces every layout.
-const DEFAULT_LAYOUTS: &[Engine] = &[
-    Engine::Bvh2,
-    Engine::Bvh8,
-    Engine::Embree,
-    Engine::Tinybvh,
-    Engine::TinybvhHq,
-    Engine::Obvhs,
-];
-
-fn default_builders(quick: bool, full: bool) -> Vec<String> {
-    if full {
-        return tree::builders_for_large_inputs();
-    }
-    let list = if quick {
-        QUICK_BUILDERS
-    } else {
-        DEFAULT_BUILDERS
-    };
-    list.iter()
-        .filter(|n| sahara_builders::registry::by_name(n).is_some())
-        .map(|n| n.to_string())
-        .collect()
-}
-
-/// The layout whose speed the summary reports: `bvh8` when traced, else the first.
-pub fn headline_layout(layouts: &[Engine]) -> Engine {
-    layouts
-        .iter()
-        .find(|l| **l == Engine::Bvh8)
-        .or(layouts.first())
-        .copied()
-        .unwrap_or(Engine::Bvh2)
-}
-
-/// True when `builder` splits triangles: the registry's `spatial` flag, or Embree's
-/// spatial-split tree (`embree-high`, not a registry entry). An unknown name is not spatial
-/// (it fails later, when it is built).
-fn is_spatial(builder: &str) -> bool {
-    builder == "embree-high"
-        || sahara_builders::registry::entries()
-            .iter()
-            .any(|e| e.name == builder && e.spatial)
-}
-
-/// True when `builder` should be skipped on a scene of `triangles` (only for builders the
-/// user did not name: a named builder always runs).
-fn impractical(builder: &str, triangles: usize, named: bool) -> bool {
-    !named
-        && sahara_builders::registry::entries()
-            .iter()
-            .any(|e| e.name == builder && e.max_practical_triangles.is_some_and(|m| triangles > m))
-}
-
-impl Args {
-    /// The backend of the run: `--backend`, else the best of this CPU.
-    fn backend(&self) -> sahara_trace::Backend {
-        self.backend.unwrap_or_else(sahara_trace::Backend::best)
-    }
-
-    fn settings(&self) -> Settings {
-        let (q, full) = (self.quick, self.full);
-        let mut builders = if self.builders.is_empty() {
-            default_builders(q, full)
-        } else {
-            self.builders.clone()
-        };
-        // The references the run's comparisons need come first: `sweep` always, `sbvh` when a
-        // spatial-split builder is in the run (only their "vs sbvh" figures use it).
-        let needs_spatial = builders.iter().any(|b| is_spatial(b));
-        for r in [SPATIAL_REFERENCE, REFERENCE] {
-            let needed = r == REFERENCE || needs_spatial;
-            if needed && !builders.iter().any(|b| b == r) {
-                builders.insert(0, r.to_string());
-            }
-        }
-        builders.sort_by_key(|b| (b != REFERENCE, b != SPATIAL_REFERENCE));
-        Settings {
-            quick: q,
-            full,
-            scenes: if self.scenes.is_empty() {
-                default_scenes(q)
-            } else {
-                self.scenes.clone()
-            },
-            builders,
-            rays: self.rays.clone(),
-            layouts: if self.layouts.is_empty() {
-                Engine::built()
-                    .into_iter()
-                    .filter(|l| full || DEFAULT_LAYOUTS.contains(l))
-                    .collect()
-            } else {
-                self.layouts.clone()
-            },
-            backend: self.backend().name().to_string(),
-            width: self.width.unwrap_or(pick(q, full, 256, 320, 1024)),
-            height: self.height.unwrap_or(pick(q, full, 192, 240, 768)),
-            passes: self.passes.unwrap_or(pick(q, full, 11, 15, 11)),
-            round_budget: self.round_budget.unwrap_or(pick(q, full, 20.0, 20.0, 0.0)),
-            build_runs: self.build_runs.unwrap_or(pick(q, full, 3, 3, 5)),
-            threads: util::thread_count(self.threads),
-            seed: self.seed,
-            cost_model: sahara_metrics::CostModel::default(),
-        }
-    }
-}
-
-/// The quick, default or full value of a setting.
-fn pick<T>(quick: bool, full: bool, q: T, default: T, f: T) -> T {
-    if quick {
-        q
-    } else if full {
-        f
-    } else {
-        default
-    }
-}
-
+/// Runs the evaluation: measures every scene, fits the predictors, measures scaling and
+/// writes the report folder.
 pub fn run(a: Args) -> Result<()> {
-    let t0 = std::time::Instant::now();
+    let t0 = Instant::now();
     let s = a.settings();
     let out = util::out_dir(a.out.as_deref(), "target/eval", &util::utc_stamp());
     std::fs::create_dir_all(out.join("images"))
         .with_context(|| format!("creating {}", out.display()))?;
     std::fs::create_dir_all(out.join("plots"))?;
+    let kinds = check(&s)?;
+    let run = Run {
+        bar: progress_bar(s.scenes.len() * s.builders.len() * (1 + kinds.len() * s.layouts.len())),
+        a: &a,
+        s: &s,
+        kinds,
+        out: &out,
+    };
+    let catalog = sahara_scene::Catalog::discover();
+    let mut m = Measured::default();
+    for scene_name in &s.scenes {
+        run.scene(&catalog, scene_name, &mut m)?;
+    }
+    run.bar.finish_with_message("traced");
+
+    let (predictors, predicted_points) = predict::evaluate(&m.trees, &m.builds, &m.traces, &s)?;
+    let scaling = if a.no_scaling {
+        Vec::new()
+    } else {
+        scaling(&a, &s)?
+    };
+    let results = Results {
+        meta: Meta {
+            date: util::utc_stamp(),
+            commit: util::git_commit(),
+            cpu: util::cpu_name(),
+            simd: sahara_traverse::simd_backend().to_string(),
+            settings: s,
+            seconds: t0.elapsed().as_secs_f64(),
+        },
+        scenes: m.scenes,
+        skipped: m.skipped,
+        builds: m.builds,
+        traces: m.traces,
+        predictors,
+        predicted_points,
+        scaling,
+        study: saved_study::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("..")),
+    };
+    report::write_all(&out, &results)?;
+    link_latest(&out)?;
+    println!("report written to {}", out.join("report.md").display());
+    println!("                  {}", out.join("report.html").display());
+    Ok(())
+}
+
+/// Checks the run's ray types, layouts and builders before anything is measured; the ray
+/// kinds.
+fn check(s: &Settings) -> Result<Vec<RayKind>> {
     let kinds: Vec<RayKind> = s
         .rays
         .iter()
@@ -368,9 +271,12 @@ pub fn run(a: Args) -> Result<()> {
     for b in &s.builders {
         util::builder(b)?;
     }
+    Ok(kinds)
+}
 
-    let steps = (s.scenes.len() * s.builders.len() * (1 + kinds.len() * s.layouts.len())) as u64;
-    let bar = ProgressBar::new(steps);
+/// A progress bar of `steps` steps (one per build and per trace row).
+fn progress_bar(steps: usize) -> ProgressBar {
+    let bar = ProgressBar::new(steps as u64);
     bar.set_style(
         ProgressStyle::with_template(
             "{elapsed_precise} [{bar:30}] {pos}/{len} ETA {eta_precise} {msg}",
@@ -378,146 +284,161 @@ pub fn run(a: Args) -> Result<()> {
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> "),
     );
+    bar
+}
 
-    let catalog = sahara_scene::Catalog::discover();
-    let mut scenes = Vec::new();
-    let mut builds = Vec::new();
-    let mut traces: Vec<TraceRow> = Vec::new();
-    let mut trees_for_predictors: Vec<predict::SceneTrees> = Vec::new();
-    let mut skipped: Vec<String> = Vec::new();
-    for scene_name in &s.scenes {
-        status(&bar, format!("loading {scene_name}"));
-        let scene = match util::load_scene_with(&catalog, scene_name, a.camera.as_ref()) {
+/// What the scenes of a run have measured so far.
+#[derive(Default)]
+struct Measured {
+    scenes: Vec<SceneInfo>,
+    /// Builders left out on scenes where they are impractical.
+    skipped: Vec<String>,
+    builds: Vec<BuildReport>,
+    traces: Vec<TraceRow>,
+    /// Every scene's trees and ray samples, for the predictors.
+    trees: Vec<predict::SceneTrees>,
+}
+
+/// A run's flags, settings, ray kinds, output folder and progress, shared by its steps.
+struct Run<'a> {
+    a: &'a Args,
+    s: &'a Settings,
+    kinds: Vec<RayKind>,
+    out: &'a Path,
+    bar: ProgressBar,
+}
+
+impl Run<'_> {
+    /// Progress steps of one builder on one scene: its build and its trace rows.
+    fn steps_per_builder(&self) -> u64 {
+        (1 + self.kinds.len() * self.s.layouts.len()) as u64
+    }
+
+    /// Measures one scene (skipped with a message when it does not load): builds its trees,
+    /// generates its ray sets, traces every tree with every layout, relates the rows to the
+    /// references.
+    fn scene(
+        &self,
+        catalog: &sahara_scene::Catalog,
+        scene_name: &str,
+        m: &mut Measured,
+    ) -> Result<()> {
+        status(&self.bar, format!("loading {scene_name}"));
+        let scene = match util::load_scene_with(catalog, scene_name, self.a.camera.as_ref()) {
             Ok(sc) => sc,
             Err(e) => {
                 eprintln!("skipping scene {scene_name}: {e:#}");
-                bar.inc((s.builders.len() * (1 + kinds.len() * s.layouts.len())) as u64);
-                continue;
+                self.bar
+                    .inc(self.s.builders.len() as u64 * self.steps_per_builder());
+                return Ok(());
             }
         };
+        let trees = self.build_trees(&scene, m)?;
+        // Ray sets from the reference tree: identical for every tree (deterministic hits).
+        let ref_tracer = Bvh2Tracer::new(&trees[0].1, &scene.triangles);
+        let sets = self.ray_sets(&scene, &ref_tracer)?;
+        let mut info = SceneInfo::new(&scene);
+        let samples = predictor_samples(&sets, &ref_tracer);
+        let first_row = m.traces.len();
+        self.trace(&scene, &trees, &sets, &mut info, &mut m.traces)?;
+        rounds::relate(&mut m.traces[first_row..]);
+        m.trees.push(predict::SceneTrees {
+            scene,
+            trees,
+            samples,
+        });
+        m.scenes.push(info);
+        Ok(())
+    }
+
+    /// Builds and validates every builder's tree of the scene (the reference first), skipping
+    /// the builders impractical at its size that the user did not name.
+    fn build_trees(&self, scene: &LoadedScene, m: &mut Measured) -> Result<Vec<(String, Bvh)>> {
         let mut trees = Vec::new();
-        for b in &s.builders {
-            if impractical(b, scene.triangles.len(), !a.builders.is_empty()) {
-                skipped.push(format!(
+        for b in &self.s.builders {
+            if matrix::impractical(b, scene.triangles.len(), !self.a.builders.is_empty()) {
+                m.skipped.push(format!(
                     "{b} on {} ({} triangles; name it with --builders to run it)",
                     scene.name,
                     scene.triangles.len()
                 ));
-                bar.inc((1 + kinds.len() * s.layouts.len()) as u64);
+                self.bar.inc(self.steps_per_builder());
                 continue;
             }
-            status(&bar, format!("{} / build {b}", scene.name));
-            let (rep, bvh) =
-                build_adaptive(&scene.name, &scene.triangles, b, s.build_runs, a.threads)?;
+            status(&self.bar, format!("{} / build {b}", scene.name));
+            let (rep, bvh) = build_adaptive(
+                &scene.name,
+                &scene.triangles,
+                b,
+                self.s.build_runs,
+                self.a.threads,
+            )?;
             bvh.validate(&scene.triangles)
                 .with_context(|| format!("{b} on {}", scene.name))?;
-            builds.push(rep);
+            m.builds.push(rep);
             trees.push((b.clone(), bvh));
-            bar.inc(1);
+            self.bar.inc(1);
         }
-        // Ray sets from the reference tree: identical for every tree (deterministic hits).
-        let reference = &trees[0].1;
-        let ref_tracer = sahara_trace::Bvh2Tracer::new(reference, &scene.triangles);
+        Ok(trees)
+    }
+
+    /// The run's ray sets of the scene, one per ray kind, generated with `reference`.
+    fn ray_sets(&self, scene: &LoadedScene, reference: &dyn Tracer) -> Result<Vec<RaySet>> {
         let camera = engine::trace_camera(&scene.camera);
-        let sets: Vec<RaySet> = util::with_threads(a.threads, || {
-            kinds
+        util::with_threads(self.a.threads, || {
+            self.kinds
                 .iter()
                 .map(|&k| {
                     RaySet::generate(
                         k,
                         &camera,
-                        s.width,
-                        s.height,
-                        &ref_tracer,
+                        self.s.width,
+                        self.s.height,
+                        reference,
                         &scene.triangles,
-                        s.seed,
+                        self.s.seed,
                     )
                 })
                 .collect()
-        })?;
-        let mut info = SceneInfo {
-            name: scene.name.clone(),
-            triangles: scene.triangles.len(),
-            render: None,
-            heat_maps: Vec::new(),
-            heat_scale: 1.0,
-            diff_maps: Vec::new(),
-            diff_scale: 1.0,
-            camera: scene.camera.to_string(),
-            camera_source: scene.camera_source.clone(),
-            rounds: Vec::new(),
-        };
-        let samples: Vec<(String, Vec<sahara_geom::Ray>)> = sets
-            .iter()
-            .map(|set| {
-                let hits = (!set.kind.uses_any_hit())
-                    .then(|| sahara_trace::trace_closest(&ref_tracer, &set.rays));
-                (
-                    set.kind.name().to_string(),
-                    predict::ray_sample(&set.rays, hits.as_deref()),
-                )
-            })
-            .collect();
-        let first_row = traces.len();
-        // Per-pixel primary-ray work of each tree, for heat maps on one colour scale.
-        let mut heat: Vec<(String, sahara_trace::PixelWork)> = Vec::new();
-        // The same work as raw per-pixel sums, for the difference maps against sweep.
-        let mut pixel_work: Vec<(String, Vec<Option<u64>>)> = Vec::new();
+        })
+    }
+
+    /// Traces every tree of the scene with every layout: the timed rounds
+    /// ([`Run::time_rounds`]), then one counted pass per tree, layout and ray set, each a
+    /// row of `traces`; the primary-ray work of the bvh2 rows goes to the images.
+    fn trace(
+        &self,
+        scene: &LoadedScene,
+        trees: &[(String, Bvh)],
+        sets: &[RaySet],
+        info: &mut SceneInfo,
+        traces: &mut Vec<TraceRow>,
+    ) -> Result<()> {
+        let backend = self.a.backend();
         // Every tracer of the scene: one per layout and tree.
-        let tracers: Vec<Vec<Box<dyn sahara_trace::Tracer + '_>>> = s
+        let tracers: Vec<Vec<Box<dyn Tracer + '_>>> = self
+            .s
             .layouts
             .iter()
             .map(|layout| {
                 trees
                     .iter()
-                    .map(|(_, bvh)| layout.tracer(bvh, &scene.triangles, a.backend()))
+                    .map(|(_, bvh)| layout.tracer(bvh, &scene.triangles, backend))
                     .collect::<Result<_>>()
             })
             .collect::<Result<_>>()?;
-        // Foreign engines (Embree, tinybvh, obvhs) ignore the builders' trees (every tracer of
-        // such a layout traces the same tree of the engine's own): each is traced once, and
-        // its figures fill every builder's row.
-        let timed_trees = |layout: &Engine| {
-            if layout.is_foreign() {
-                1
-            } else {
-                trees.len()
-            }
-        };
-        // Timings per ray set, layout and tree. The passes of every layout and tree are
-        // interleaved (one warm-up round, then `passes` timed rounds), so that the drift of a
-        // shared machine hits every engine alike and their ratios come from the same rounds.
-        let mut timings: Vec<Vec<Vec<Vec<f64>>>> = Vec::new();
-        for set in &sets {
-            status(&bar, format!("{} / trace {}", scene.name, set.kind.name()));
-            let engines: Vec<&dyn sahara_trace::Tracer> = s
-                .layouts
-                .iter()
-                .zip(&tracers)
-                .flat_map(|(layout, ts)| ts[..timed_trees(layout)].iter().map(|t| t.as_ref()))
-                .collect();
-            let samples = util::with_threads(a.threads, || {
-                interleaved_timings(&engines, set, s.passes, s.round_budget)
-            })?;
-            info.rounds.push((
-                set.kind.name().to_string(),
-                samples.first().map_or(0, Vec::len),
-            ));
-            let mut flat = samples.into_iter();
-            timings.push(
-                s.layouts
-                    .iter()
-                    .map(|layout| flat.by_ref().take(timed_trees(layout)).collect())
-                    .collect(),
-            );
-        }
-        for (li, layout) in s.layouts.iter().enumerate() {
+        let timings = self.time_rounds(&scene.name, trees.len(), &tracers, sets, info)?;
+        // Per-pixel primary-ray work of each tree, for heat maps on one colour scale.
+        let mut heat: Vec<(String, sahara_trace::PixelWork)> = Vec::new();
+        // The same work as raw per-pixel sums, for the difference maps against sweep.
+        let mut pixel_work: Vec<(String, Vec<Option<u64>>)> = Vec::new();
+        for (li, layout) in self.s.layouts.iter().enumerate() {
             for (si, set) in sets.iter().enumerate() {
                 status(
-                    &bar,
+                    &self.bar,
                     format!("{} / count {layout} {}", scene.name, set.kind.name()),
                 );
-                let shared = timed_trees(layout) == 1 && trees.len() > 1;
+                let shared = timed_trees(*layout, trees.len()) == 1 && trees.len() > 1;
                 let mut shared_counts: Option<
                     sahara_trace::CountedTrace<sahara_trace::TraceResults>,
                 > = None;
@@ -526,7 +447,7 @@ pub fn run(a: Args) -> Result<()> {
                     let timing = sahara_trace::Timing::from_samples(rounds);
                     let counted = match &shared_counts {
                         Some(c) => c.clone(),
-                        None => util::with_threads(a.threads, || {
+                        None => util::with_threads(self.a.threads, || {
                             sahara_trace::trace_set_counted(tracer.as_ref(), set)
                         })?,
                     };
@@ -538,14 +459,14 @@ pub fn run(a: Args) -> Result<()> {
                         scene.triangles.len(),
                         b,
                         *layout,
-                        &layout.backend_name(a.backend()),
+                        &layout.backend_name(backend),
                         set,
-                        a.threads,
+                        self.a.threads,
                         timing,
                         &counted,
                     );
                     if *layout == Engine::Bvh2 && set.kind == RayKind::Primary {
-                        write_render(&out, &scene, set, &counted, &mut info)?;
+                        images::write_render(self.out, scene, set, &counted, info)?;
                         heat.push((
                             b.clone(),
                             sahara_trace::PixelWork::new(
@@ -555,87 +476,157 @@ pub fn run(a: Args) -> Result<()> {
                                 &counted.work,
                             ),
                         ));
-                        pixel_work.push((b.clone(), per_pixel_work(set, &counted.work)));
+                        pixel_work.push((b.clone(), images::per_pixel_work(set, &counted.work)));
                     }
-                    let cm = s.cost_model;
-                    traces.push(TraceRow {
-                        work_cost: cm.traversal as f64 * rep.inner_per_ray
-                            + cm.intersection as f64 * rep.triangles_per_ray,
-                        report: rep,
-                        speed_vs_sweep: None,
-                        work_vs_sweep: None,
-                        speed_vs_sbvh: None,
-                        work_vs_sbvh: None,
-                        round_seconds: rounds.clone(),
-                        speed_vs_sweep_ci: None,
-                        speed_vs_sbvh_ci: None,
-                    });
-                    bar.inc(1);
+                    traces.push(TraceRow::new(rep, rounds.clone(), self.s.cost_model));
+                    self.bar.inc(1);
                 }
             }
         }
         drop(tracers);
-        write_heat_maps(&out, &scene.name, &heat, &mut info)?;
-        write_diff_maps(&out, &scene.name, s.width, s.height, &pixel_work, &mut info)?;
-        relate(&mut traces[first_row..]);
-        trees_for_predictors.push(predict::SceneTrees {
-            scene,
-            trees,
-            samples,
-        });
-        scenes.push(info);
+        images::write_heat_maps(self.out, &scene.name, &heat, info)?;
+        images::write_diff_maps(
+            self.out,
+            &scene.name,
+            self.s.width,
+            self.s.height,
+            &pixel_work,
+            info,
+        )?;
+        Ok(())
     }
-    bar.finish_with_message("traced");
 
-    let (predictors, predicted_points) =
-        predict::evaluate(&trees_for_predictors, &builds, &traces, &s)?;
+    /// The timed rounds per ray set, layout and tree (`[set][layout][tree]`, one tree for a
+    /// foreign engine). The passes of every layout and tree are interleaved (one warm-up
+    /// round, then `passes` timed rounds), so that the drift of a shared machine hits every
+    /// engine alike and their ratios come from the same rounds. Records the rounds taken in
+    /// `info`.
+    fn time_rounds(
+        &self,
+        scene: &str,
+        trees: usize,
+        tracers: &[Vec<Box<dyn Tracer + '_>>],
+        sets: &[RaySet],
+        info: &mut SceneInfo,
+    ) -> Result<Vec<Vec<Vec<Vec<f64>>>>> {
+        let mut timings = Vec::new();
+        for set in sets {
+            status(&self.bar, format!("{scene} / trace {}", set.kind.name()));
+            let engines: Vec<&dyn Tracer> = self
+                .s
+                .layouts
+                .iter()
+                .zip(tracers)
+                .flat_map(|(layout, ts)| {
+                    ts[..timed_trees(*layout, trees)].iter().map(|t| t.as_ref())
+                })
+                .collect();
+            let samples = util::with_threads(self.a.threads, || {
+                rounds::interleaved_timings(&engines, set, self.s.passes, self.s.round_budget)
+            })?;
+            info.rounds.push((
+                set.kind.name().to_string(),
+                samples.first().map_or(0, Vec::len),
+            ));
+            let mut flat = samples.into_iter();
+            timings.push(
+                self.s
+                    .layouts
+                    .iter()
+                    .map(|layout| flat.by_ref().take(timed_trees(*layout, trees)).collect())
+                    .collect(),
+            );
+        }
+        Ok(timings)
+    }
+}
 
-    let scaling = if a.no_scaling {
-        Vec::new()
+/// How many of a layout's `trees` tracers are timed: foreign engines (Embree, tinybvh, obvhs)
+/// ignore the builders' trees (every tracer of such a layout traces the same tree of the
+/// engine's own), so each is traced once and its figures fill every builder's row.
+fn timed_trees(layout: Engine, trees: usize) -> usize {
+    if layout.is_foreign() {
+        1
     } else {
-        let sizes: Vec<usize> = pick(
-            s.quick,
-            s.full,
-            vec![1_000, 4_000, 16_000],
-            vec![1_000, 10_000, 100_000],
-            vec![1_000, 10_000, 100_000, 1_000_000],
-        );
-        eprintln!("scaling: build time against N on procedural 'soup' ({sizes:?})");
-        tree::measure_scaling(
-            &s.builders,
-            sahara_scene::Procedural::Soup,
-            &sizes,
-            pick(s.quick, s.full, 1, 1, 3),
-            pick(s.quick, s.full, 5.0, 5.0, 300.0),
-            a.threads,
-            a.builders.is_empty(),
-            |b, n, t| eprintln!("  {b:<16} N = {n:>9}: {t:.3} s"),
-        )?
-    };
+        trees
+    }
+}
 
-    let results = Results {
-        meta: Meta {
-            date: util::utc_stamp(),
-            commit: util::git_commit(),
-            cpu: util::cpu_name(),
-            simd: simd_backend(),
-            settings: s,
-            seconds: t0.elapsed().as_secs_f64(),
-        },
-        scenes,
-        skipped,
-        builds,
-        traces,
-        predictors,
-        predicted_points,
-        scaling,
-        study: saved_study::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("..")),
-    };
-    report::write_all(&out, &results)?;
-    link_latest(&out)?;
-    println!("report written to {}", out.join("report.md").display());
-    println!("                  {}", out.join("report.html").display());
-    Ok(())
+/// Per ray set: a sample of its rays cut at the reference's closest hits, for the
+/// ray-weighted predictor.
+fn predictor_samples(
+    sets: &[RaySet],
+    reference: &dyn Tracer,
+) -> Vec<(String, Vec<sahara_geom::Ray>)> {
+    sets.iter()
+        .map(|set| {
+            let hits = (!set.kind.uses_any_hit())
+                .then(|| sahara_trace::trace_closest(reference, &set.rays));
+            (
+                set.kind.name().to_string(),
+                predict::ray_sample(&set.rays, hits.as_deref()),
+            )
+        })
+        .collect()
+}
+
+/// The build-time-against-N section: the run's builders on procedural `soup` at the matrix's
+/// sizes.
+fn scaling(a: &Args, s: &Settings) -> Result<Vec<tree::Series>> {
+    let m = Matrix::of(s.quick, s.full);
+    let sizes = m.scaling_sizes;
+    eprintln!("scaling: build time against N on procedural 'soup' ({sizes:?})");
+    tree::measure_scaling(
+        &s.builders,
+        sahara_scene::Procedural::Soup,
+        sizes,
+        m.scaling_runs,
+        m.scaling_max_seconds,
+        a.threads,
+        a.builders.is_empty(),
+        |b, n, t| eprintln!("  {b:<16} N = {n:>9}: {t:.3} s"),
+    )
+}
+
+impl SceneInfo {
+    /// A scene's entry before its images and rounds are known.
+    fn new(scene: &LoadedScene) -> SceneInfo {
+        SceneInfo {
+            name: scene.name.clone(),
+            triangles: scene.triangles.len(),
+            render: None,
+            heat_maps: Vec::new(),
+            heat_scale: 1.0,
+            diff_maps: Vec::new(),
+            diff_scale: 1.0,
+            camera: scene.camera.to_string(),
+            camera_source: scene.camera_source.clone(),
+            rounds: Vec::new(),
+        }
+    }
+}
+
+impl TraceRow {
+    /// The row of a measurement, its work in the cost model's units, before [`rounds::relate`]
+    /// fills the relative columns.
+    fn new(
+        report: TraceReport,
+        round_seconds: Vec<f64>,
+        cm: sahara_metrics::CostModel,
+    ) -> TraceRow {
+        TraceRow {
+            work_cost: cm.traversal as f64 * report.inner_per_ray
+                + cm.intersection as f64 * report.triangles_per_ray,
+            report,
+            speed_vs_sweep: None,
+            work_vs_sweep: None,
+            speed_vs_sbvh: None,
+            work_vs_sbvh: None,
+            round_seconds,
+            speed_vs_sweep_ci: None,
+            speed_vs_sbvh_ci: None,
+        }
+    }
 }
 
 /// Shows `msg` on the progress bar, or as a log line when stderr is not a terminal (the bar
@@ -650,99 +641,6 @@ fn status(bar: &ProgressBar, msg: String) {
         );
     }
     bar.set_message(msg);
-}
-
-/// The fewest timed rounds the round budget may leave (the bootstrap intervals need a few).
-pub const MIN_ROUNDS: usize = 5;
-
-/// How many timed rounds fit `budget` seconds when one round takes `round` seconds: `passes`
-/// when they fit (or when the budget is 0, off), else as many as fit, but at least
-/// [`MIN_ROUNDS`] (and never more than `passes`).
-pub fn rounds_within(round: f64, budget: f64, passes: usize) -> usize {
-    if budget <= 0.0 || round <= 0.0 || round * passes as f64 <= budget {
-        return passes;
-    }
-    ((budget / round).floor() as usize).clamp(MIN_ROUNDS.min(passes), passes)
-}
-
-/// Times every tracer on `set`: one untimed warm-up round, then `passes` rounds (fewer when
-/// they would exceed `budget` seconds, see [`rounds_within`]), each round tracing the whole set
-/// once with every tracer in turn; the seconds of every round, per tracer.
-fn interleaved_timings(
-    tracers: &[&dyn sahara_trace::Tracer],
-    set: &RaySet,
-    passes: usize,
-    budget: f64,
-) -> Vec<Vec<f64>> {
-    let warm_up = std::time::Instant::now();
-    for t in tracers {
-        std::hint::black_box(sahara_trace::trace_set(*t, set));
-    }
-    let rounds = rounds_within(warm_up.elapsed().as_secs_f64(), budget, passes.max(1));
-    let mut samples = vec![Vec::with_capacity(rounds); tracers.len()];
-    for _ in 0..rounds {
-        for (i, t) in tracers.iter().enumerate() {
-            let t0 = std::time::Instant::now();
-            std::hint::black_box(sahara_trace::trace_set(*t, set));
-            samples[i].push(t0.elapsed().as_secs_f64());
-        }
-    }
-    samples
-}
-
-/// The percentile of per-pixel work that the heat maps' colour scale tops out at.
-pub const HEAT_PERCENTILE: f64 = 99.0;
-
-/// The scene's shaded render (once per scene, from the first tree's primary hits).
-fn write_render(
-    out: &Path,
-    scene: &util::LoadedScene,
-    set: &RaySet,
-    counted: &sahara_trace::CountedTrace<sahara_trace::TraceResults>,
-    info: &mut SceneInfo,
-) -> Result<()> {
-    if info.render.is_some() {
-        return Ok(());
-    }
-    if let sahara_trace::TraceResults::Closest(hits) = &counted.results {
-        let path = format!("images/{}-render.png", file_stem(&scene.name));
-        sahara_trace::shade(
-            set.width,
-            set.height,
-            &set.pixel,
-            &set.rays,
-            hits,
-            &scene.triangles,
-            sahara_trace::Shading::Grey,
-        )
-        .write_png(out.join(&path))?;
-        info.render = Some(path);
-    }
-    Ok(())
-}
-
-/// Heat maps of primary-ray work, one per tree, all on one colour scale: the largest of the
-/// trees' [`HEAT_PERCENTILE`]-th percentiles of per-pixel work, so that a colour means the same
-/// work in every image of the scene (recorded in `info.heat_scale`).
-fn write_heat_maps(
-    out: &Path,
-    scene: &str,
-    heat: &[(String, sahara_trace::PixelWork)],
-    info: &mut SceneInfo,
-) -> Result<()> {
-    let scale = heat
-        .iter()
-        .map(|(_, w)| w.percentile(HEAT_PERCENTILE))
-        .fold(1.0, f64::max);
-    for (builder, work) in heat {
-        let path = format!("images/{}-{}-heat.png", file_stem(scene), builder);
-        work.heat_map(scale, HEAT_PERCENTILE)
-            .image
-            .write_png(out.join(&path))?;
-        info.heat_maps.push((builder.clone(), path));
-    }
-    info.heat_scale = scale;
-    Ok(())
 }
 
 /// Builds slower than this are timed once (the report says how many runs each has).
@@ -765,130 +663,6 @@ fn build_adaptive(
         sahara_metrics::epo(&bvh, tris, &sahara_metrics::CostModel::default())
     })?);
     Ok((rep, bvh))
-}
-
-/// Per pixel of `set`'s image, the summed work of its rays (`None` for pixels without a
-/// ray), as [`sahara_trace::PixelWork`] sums it.
-fn per_pixel_work(set: &RaySet, work: &[sahara_trace::WorkCounters]) -> Vec<Option<u64>> {
-    let mut v = vec![None; set.width as usize * set.height as usize];
-    for (&p, w) in set.pixel.iter().zip(work) {
-        if let Some(slot) = v.get_mut(p as usize) {
-            *slot = Some(slot.unwrap_or(0) + sahara_trace::work_total(w));
-        }
-    }
-    v
-}
-
-/// The diverging colour of `x` in `[-1, 1]` (clamped; NaN as 0): blue for negative (less
-/// work than sweep), near-white at 0, red for positive (ColorBrewer RdBu ends).
-pub fn diverging(x: f64) -> [u8; 3] {
-    const BLUE: [f64; 3] = [33.0, 102.0, 172.0];
-    const MID: [f64; 3] = [247.0, 247.0, 247.0];
-    const RED: [f64; 3] = [178.0, 24.0, 43.0];
-    let x = if x.is_nan() { 0.0 } else { x.clamp(-1.0, 1.0) };
-    let (end, t) = if x < 0.0 { (BLUE, -x) } else { (RED, x) };
-    std::array::from_fn(|c| (MID[c] + (end[c] - MID[c]) * t + 0.5) as u8)
-}
-
-/// One image per tree other than sweep: its per-pixel work minus the sweep tree's, coloured
-/// by [`diverging`] on one symmetric scale for the scene (the largest of the trees'
-/// [`HEAT_PERCENTILE`]-th percentiles of the absolute difference, at least 1). Pixels without
-/// a ray are black.
-fn write_diff_maps(
-    out: &Path,
-    scene: &str,
-    width: u32,
-    height: u32,
-    work: &[(String, Vec<Option<u64>>)],
-    info: &mut SceneInfo,
-) -> Result<()> {
-    let Some((_, reference)) = work.iter().find(|(b, _)| b == REFERENCE) else {
-        return Ok(());
-    };
-    let diffs: Vec<(&String, Vec<Option<f64>>)> = work
-        .iter()
-        .filter(|(b, _)| b != REFERENCE)
-        .map(|(b, w)| {
-            let d = w
-                .iter()
-                .zip(reference)
-                .map(|(x, r)| {
-                    Some(x.unwrap_or(0) as f64 - r.unwrap_or(0) as f64)
-                        .filter(|_| x.is_some() || r.is_some())
-                })
-                .collect();
-            (b, d)
-        })
-        .collect();
-    let scale = diffs
-        .iter()
-        .map(|(_, d)| {
-            let mut a: Vec<f64> = d.iter().flatten().map(|x| x.abs()).collect();
-            a.sort_by(f64::total_cmp);
-            let rank = ((HEAT_PERCENTILE / 100.0) * a.len() as f64).ceil() as usize;
-            a.get(rank.clamp(1, a.len().max(1)) - 1)
-                .copied()
-                .unwrap_or(0.0)
-        })
-        .fold(1.0, f64::max);
-    for (builder, d) in diffs {
-        let mut image = sahara_trace::RgbImage::new(width, height);
-        for (i, v) in d.iter().enumerate() {
-            if let Some(v) = v {
-                image.set(i, diverging(v / scale));
-            }
-        }
-        let path = format!(
-            "images/{}-{}-diff.png",
-            file_stem(scene),
-            file_stem(builder)
-        );
-        image.write_png(out.join(&path))?;
-        info.diff_maps.push((builder.clone(), path));
-    }
-    info.diff_scale = scale;
-    Ok(())
-}
-
-/// Fills the relative columns of one scene's rows: work ratios, and speed ratios with their
-/// intervals from the per-round ratios against the reference's rows of the same layout and
-/// rays (the median of the throughput ratio when rounds are missing).
-pub(crate) fn relate(rows: &mut [TraceRow]) {
-    let find = |rows: &[TraceRow], b: &str, r: &TraceRow| {
-        rows.iter()
-            .find(|x| {
-                x.report.builder == b
-                    && x.report.layout == r.report.layout
-                    && x.report.ray_kind == r.report.ray_kind
-            })
-            .map(|x| {
-                (
-                    x.report.mrays_s.median,
-                    x.work_cost,
-                    x.round_seconds.clone(),
-                )
-            })
-    };
-    let snapshot: Vec<TraceRow> = rows.to_vec();
-    for r in rows.iter_mut() {
-        let speed = |r: &TraceRow, (mrays, _, rounds): &(f64, f64, Vec<f64>)| {
-            let ci = interval::median_interval(&interval::round_ratios(rounds, &r.round_seconds));
-            let point = ci.map_or(r.report.mrays_s.median / mrays, |i| i.estimate);
-            (Some(point), ci)
-        };
-        if let Some(reference) = find(&snapshot, REFERENCE, r) {
-            (r.speed_vs_sweep, r.speed_vs_sweep_ci) = speed(r, &reference);
-            r.work_vs_sweep = Some(reference.1 / r.work_cost);
-        }
-        if let Some(reference) = find(&snapshot, SPATIAL_REFERENCE, r) {
-            (r.speed_vs_sbvh, r.speed_vs_sbvh_ci) = speed(r, &reference);
-            r.work_vs_sbvh = Some(reference.1 / r.work_cost);
-        }
-    }
-}
-
-fn simd_backend() -> String {
-    sahara_traverse::simd_backend().to_string()
 }
 
 /// Points `target/eval/latest` at the new folder (a symlink, or a copy where links fail).
@@ -922,61 +696,4 @@ fn copy_dir(from: &Path, to: &Path) -> Result<()> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod reference_tests {
-    use super::Args;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        eval: Args,
-    }
-
-    fn builders(args: &[&str]) -> Vec<String> {
-        let cli = Cli::parse_from(std::iter::once("eval").chain(args.iter().copied()));
-        cli.eval.settings().builders
-    }
-
-    /// `sweep` joins every run first; `sbvh` only runs with a spatial-split builder to compare.
-    #[test]
-    fn the_spatial_reference_joins_only_runs_with_spatial_builders() {
-        assert_eq!(builders(&["--builders", "binned"]), ["sweep", "binned"]);
-        assert_eq!(
-            builders(&["--builders", "ploc,tsah-topk"]),
-            ["sweep", "ploc", "tsah-topk"]
-        );
-        assert_eq!(
-            builders(&["--builders", "tsah-sbvh"]),
-            ["sweep", "sbvh", "tsah-sbvh"]
-        );
-        assert_eq!(
-            builders(&["--builders", "binned,sbvh+reinsert"]),
-            ["sweep", "sbvh", "binned", "sbvh+reinsert"]
-        );
-        assert_eq!(builders(&["--builders", "sbvh,sweep"]), ["sweep", "sbvh"]);
-        let default = builders(&[]);
-        assert_eq!(&default[..2], ["sweep", "sbvh"], "{default:?}");
-    }
-}
-
-#[cfg(test)]
-mod round_budget_tests {
-    use super::{rounds_within, MIN_ROUNDS};
-
-    #[test]
-    fn rounds_that_fit_the_budget_are_all_traced() {
-        assert_eq!(rounds_within(1.0, 20.0, 15), 15);
-        assert_eq!(rounds_within(1.0, 0.0, 15), 15, "a budget of 0 is off");
-        assert_eq!(rounds_within(100.0, 0.0, 15), 15);
-    }
-
-    #[test]
-    fn slow_rounds_are_cut_but_never_below_the_minimum() {
-        assert_eq!(rounds_within(2.0, 20.0, 15), 10);
-        assert_eq!(rounds_within(19.0, 20.0, 15), MIN_ROUNDS);
-        assert_eq!(rounds_within(19.0, 20.0, 3), 3, "never more than asked for");
-    }
 }
