@@ -57,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
             scene.triangles.len()
         );
     }
-    let (r, bvh, input_bytes, peak) = tree::build_measure_memory(
+    let (r, bvh, input_bytes, peak) = tree::build_and_measure(
         &scene.name,
         &scene.triangles,
         &a.builder,

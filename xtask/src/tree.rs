@@ -46,22 +46,10 @@ pub struct MemoryReport {
     pub bvh8_bytes_per_triangle: f64,
 }
 
-/// Builds `runs` times on `threads` threads and measures the last tree.
+/// Builds `runs` times on `threads` threads and measures the last tree (its EPO only
+/// `with_epo`); also returns the input's heap bytes and the builds' peak heap bytes (see
+/// [`MemoryReport`]).
 pub fn build_and_measure(
-    scene: &str,
-    tris: &[sahara_geom::Triangle],
-    builder_name: &str,
-    threads: Option<usize>,
-    runs: usize,
-    with_epo: bool,
-) -> Result<(BuildReport, sahara_bvh::Bvh)> {
-    let (r, bvh, _, _) = build_measure_memory(scene, tris, builder_name, threads, runs, with_epo)?;
-    Ok((r, bvh))
-}
-
-/// [`build_and_measure`], also returning the input's heap bytes and the build's peak heap
-/// bytes (see [`MemoryReport`]).
-pub fn build_measure_memory(
     scene: &str,
     tris: &[sahara_geom::Triangle],
     builder_name: &str,

@@ -187,6 +187,16 @@ pub fn file_stem(name: &str) -> String {
         .collect()
 }
 
+/// The catalog's scene files, one per model (an engine's GLB of a model that also has an OBJ
+/// is left out: traced once), with their triangle counts where the catalog knows them.
+pub fn scene_files(catalog: &sahara_scene::Catalog) -> Vec<(String, Option<usize>)> {
+    catalog
+        .distinct_files()
+        .into_iter()
+        .map(|e| (e.name.clone(), e.triangles))
+        .collect()
+}
+
 /// Builds the registry preset `name`.
 pub fn builder(name: &str) -> Result<Box<dyn sahara_builders::Builder>> {
     // obvhs's PLOC tree, converted (feature `obvhs`; not in the builders' registry).

@@ -33,27 +33,6 @@ pub struct Matrix {
     pub scaling_max_seconds: f64,
 }
 
-/// `--quick`: the procedural scenes at small sizes, one preset of each strategy (about two
-/// minutes on two cores).
-pub const QUICK: Matrix = Matrix {
-    scenes: Some(&[
-        "sphere_in_box:20000",
-        "teapot_stadium:20000",
-        "city:20000",
-        "hairball:10000",
-    ]),
-    builders: Some(QUICK_BUILDERS),
-    layouts: Some(DEFAULT_LAYOUTS),
-    width: 256,
-    height: 192,
-    passes: 11,
-    round_budget: 20.0,
-    build_runs: 3,
-    scaling_sizes: &[1_000, 4_000, 16_000],
-    scaling_runs: 1,
-    scaling_max_seconds: 5.0,
-};
-
 /// The default run: every scene, [`DEFAULT_BUILDERS`], [`DEFAULT_LAYOUTS`].
 pub const DEFAULT: Matrix = Matrix {
     scenes: None,
@@ -67,6 +46,23 @@ pub const DEFAULT: Matrix = Matrix {
     scaling_sizes: &[1_000, 10_000, 100_000],
     scaling_runs: 1,
     scaling_max_seconds: 5.0,
+};
+
+/// `--quick`: the default run made small (about two minutes on two cores): the procedural
+/// scenes at small sizes, one preset of each strategy, smaller images, fewer rounds.
+pub const QUICK: Matrix = Matrix {
+    scenes: Some(&[
+        "sphere_in_box:20000",
+        "teapot_stadium:20000",
+        "city:20000",
+        "hairball:10000",
+    ]),
+    builders: Some(QUICK_BUILDERS),
+    width: 256,
+    height: 192,
+    passes: 11,
+    scaling_sizes: &[1_000, 4_000, 16_000],
+    ..DEFAULT
 };
 
 /// `--full`: every registered builder, every layout, 1024×768, no round budget (over an
@@ -139,11 +135,9 @@ impl Matrix {
             return s.iter().map(|s| s.to_string()).collect();
         }
         let catalog = sahara_scene::Catalog::discover();
-        // One file per model (the engine's GLB is its OBJ's model: traced once).
-        let mut v: Vec<String> = catalog
-            .distinct_files()
+        let mut v: Vec<String> = util::scene_files(&catalog)
             .into_iter()
-            .map(|e| e.name.clone())
+            .map(|(name, _)| name)
             .collect();
         v.extend(PROCEDURAL.iter().map(|s| s.to_string()));
         v

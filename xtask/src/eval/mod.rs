@@ -26,7 +26,7 @@ pub mod saved_study;
 
 use crate::engine::{self, Engine, TraceReport};
 use crate::interval;
-use crate::tree::{self, build_and_measure, BuildReport};
+use crate::tree::{self, BuildReport};
 use crate::util::{self, LoadedScene};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -655,9 +655,10 @@ fn build_adaptive(
     runs: usize,
     threads: Option<usize>,
 ) -> Result<(BuildReport, sahara_bvh::Bvh)> {
-    let (mut rep, bvh) = build_and_measure(scene, tris, builder, threads, 1, false)?;
+    let (mut rep, bvh, _, _) = tree::build_and_measure(scene, tris, builder, threads, 1, false)?;
     if runs > 1 && rep.build_ms.median < SLOW_BUILD_MS {
-        return build_and_measure(scene, tris, builder, threads, runs, true);
+        let (rep, bvh, _, _) = tree::build_and_measure(scene, tris, builder, threads, runs, true)?;
+        return Ok((rep, bvh));
     }
     rep.epo = Some(util::with_threads(threads, || {
         sahara_metrics::epo(&bvh, tris, &sahara_metrics::CostModel::default())

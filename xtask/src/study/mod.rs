@@ -95,21 +95,10 @@ fn default_scenes(quick: bool) -> Vec<String> {
             .map(String::from)
             .to_vec();
     }
-    let catalog = sahara_scene::Catalog::discover();
-    let mut v: Vec<String> = catalog
-        .distinct_files()
-        .into_iter()
-        .map(|e| e.name.clone())
-        .collect();
+    let mut files = util::scene_files(&sahara_scene::Catalog::discover());
     // Smallest first, so that a run cut short has covered the most scenes.
-    v.sort_by_key(|n| {
-        catalog
-            .distinct_files()
-            .into_iter()
-            .find(|e| &e.name == n)
-            .and_then(|e| e.triangles)
-            .unwrap_or(0)
-    });
+    files.sort_by_key(|(_, triangles)| triangles.unwrap_or(0));
+    let mut v: Vec<String> = files.into_iter().map(|(name, _)| name).collect();
     v.extend(["teapot_stadium", "city", "hairball"].map(String::from));
     v
 }
