@@ -64,18 +64,20 @@ pub struct BenchRow {
     pub ratios: Vec<(String, Spread)>,
 }
 
-enum Engine {
+/// What builds a scene in a round: one of sahara's builders (with its SIMD cap) or Embree at
+/// one quality (not a tracing engine: those are `crate::engine::Engine`).
+enum BuildEngine {
     /// Name as given, builder, SIMD cap.
     Sahara(String, Box<dyn sahara_builders::Builder>, BuildSimd),
     #[cfg_attr(not(feature = "embree"), allow(dead_code))]
     Embree(String, u8),
 }
 
-impl Engine {
+impl BuildEngine {
     fn name(&self) -> String {
         match self {
-            Engine::Sahara(n, ..) => n.clone(),
-            Engine::Embree(q, _) => format!("embree-{q}"),
+            BuildEngine::Sahara(n, ..) => n.clone(),
+            BuildEngine::Embree(q, _) => format!("embree-{q}"),
         }
     }
 }
@@ -142,7 +144,7 @@ struct Samples {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut engines: Vec<Engine> = Vec::new();
+    let mut engines: Vec<BuildEngine> = Vec::new();
     for b in &a.builders {
         let (name, level) = match b.split_once('@') {
             Some((name, level)) => {
@@ -159,10 +161,10 @@ pub fn run(a: Args) -> Result<()> {
             }
             None => (b.as_str(), BuildSimd::Avx512),
         };
-        engines.push(Engine::Sahara(b.clone(), util::builder(name)?, level));
+        engines.push(BuildEngine::Sahara(b.clone(), util::builder(name)?, level));
     }
     for q in &a.embree {
-        engines.push(Engine::Embree(q.to_ascii_lowercase(), quality_of(q)?));
+        engines.push(BuildEngine::Embree(q.to_ascii_lowercase(), quality_of(q)?));
     }
     if engines.is_empty() {
         bail!("nothing to time: give --builders and/or --embree");
@@ -182,12 +184,12 @@ pub fn run(a: Args) -> Result<()> {
         // A warm-up build of every engine (page faults, Embree's thread start-up).
         for (e, s) in engines.iter().zip(samples.iter_mut()) {
             match e {
-                Engine::Sahara(_, b, level) => {
+                BuildEngine::Sahara(_, b, level) => {
                     simd::set_max(*level);
                     let bvh = pool.install(|| b.build(&input))?;
                     s.sah = Some(sahara_metrics::sah(&bvh, &cost));
                 }
-                Engine::Embree(_, q) => {
+                BuildEngine::Embree(_, q) => {
                     time_embree(&timer, tris, *q)?;
                 }
             }
@@ -196,7 +198,7 @@ pub fn run(a: Args) -> Result<()> {
             for i in 0..engines.len() {
                 let idx = (i + round) % engines.len();
                 match &engines[idx] {
-                    Engine::Sahara(_, b, level) => {
+                    BuildEngine::Sahara(_, b, level) => {
                         simd::set_max(*level);
                         let (build, collapse) = pool.install(|| {
                             let t0 = Instant::now();
@@ -212,7 +214,7 @@ pub fn run(a: Args) -> Result<()> {
                         samples[idx].build.push(build * 1e3);
                         samples[idx].collapse.push(collapse * 1e3);
                     }
-                    Engine::Embree(_, q) => {
+                    BuildEngine::Embree(_, q) => {
                         let t = time_embree(&timer, tris, *q)?;
                         samples[idx].build.push(t * 1e3);
                     }
@@ -221,7 +223,7 @@ pub fn run(a: Args) -> Result<()> {
             eprintln!("{}: round {}/{rounds}", scene.name, round + 1);
         }
         let embree_idx: Vec<usize> = (0..engines.len())
-            .filter(|&i| matches!(engines[i], Engine::Embree(..)))
+            .filter(|&i| matches!(engines[i], BuildEngine::Embree(..)))
             .collect();
         for (i, e) in engines.iter().enumerate() {
             let s = &samples[i];
@@ -246,7 +248,7 @@ pub fn run(a: Args) -> Result<()> {
                     (engines[j].name(), Spread::of(&r))
                 })
                 .collect();
-            let sahara = matches!(e, Engine::Sahara(..));
+            let sahara = matches!(e, BuildEngine::Sahara(..));
             rows.push(BenchRow {
                 scene: scene.name.clone(),
                 triangles: tris.len(),
