@@ -196,19 +196,20 @@ pub fn render_markdown(csv: &str) -> Result<String> {
         };
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} | {} |{speed}",
-            r.s("scene"),
-            r.s("triangles"),
-            r.s("factor"),
-            r.s("builder"),
-            r.s("level"),
+            "|{} {} ({}) |{}{speed}",
+            text_cells(r, &["scene", "triangles", "factor", "builder", "level"]),
             r.s("camera"),
             r.s("camera_inside"),
-            fmt_cell(r.gain("sah")),
-            fmt_cell(r.gain("work_bvh2_primary")),
-            fmt_cell(r.gain("work_bvh2_diffuse")),
-            fmt_cell(r.gain("work_bvh2_ao")),
-            fmt_cell(r.gain("work_bvh8_primary")),
+            gain_cells(
+                r,
+                &[
+                    "sah",
+                    "work_bvh2_primary",
+                    "work_bvh2_diffuse",
+                    "work_bvh2_ao",
+                    "work_bvh8_primary"
+                ]
+            ),
         );
     }
     Ok(md)
@@ -336,16 +337,17 @@ fn main_table(md: &mut String, rows: &[Row], factors: &[&str], has_speed: bool) 
         }
         seen.push(k);
         let mut line = format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            r.s("scene"),
-            r.s("factor"),
-            r.s("builder"),
-            r.s("level"),
-            r.s("camera"),
-            fmt_cell(r.gain("sah")),
-            fmt_cell(r.gain("work_bvh2_primary")),
-            fmt_cell(r.gain("work_bvh2_diffuse")),
-            fmt_cell(r.gain("work_bvh8_primary")),
+            "|{}{}",
+            text_cells(r, &["scene", "factor", "builder", "level", "camera"]),
+            gain_cells(
+                r,
+                &[
+                    "sah",
+                    "work_bvh2_primary",
+                    "work_bvh2_diffuse",
+                    "work_bvh8_primary"
+                ]
+            ),
         );
         if has_speed {
             line += &format!(
@@ -360,6 +362,18 @@ fn main_table(md: &mut String, rows: &[Row], factors: &[&str], has_speed: bool) 
         }
     }
     let _ = writeln!(md);
+}
+
+/// The table cells ` text |` of a row's columns `cols`.
+fn text_cells(r: &Row, cols: &[&str]) -> String {
+    cols.iter().map(|c| format!(" {} |", r.s(c))).collect()
+}
+
+/// The table cells ` gain |` of a row's columns `cols` ([`Row::gain`], three decimals).
+fn gain_cells(r: &Row, cols: &[&str]) -> String {
+    cols.iter()
+        .map(|c| format!(" {} |", fmt_cell(r.gain(c))))
+        .collect()
 }
 
 /// A speed cell with its interval, `≈` marking an interval that contains 1 (a tie).
