@@ -4,6 +4,7 @@ use crate::engine::{self, Engine};
 use crate::util;
 use anyhow::{bail, Result};
 use sahara_trace::{Backend, Bvh2Tracer, Tracer};
+use sahara_traverse::Precision;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -34,6 +35,10 @@ pub struct Args {
     /// runs). A backend the CPU lacks is an error. Embree gets the matching `isa=`.
     #[arg(long, value_parser = engine::parse_backend_arg)]
     backend: Option<Backend>,
+    /// Triangle test of bvh4/bvh8: exact (watertight, the default) or fast (Möller–Trumbore;
+    /// docs/precision.md). The ray set is made by the exact kernels either way.
+    #[arg(long, default_value = "exact")]
+    precision: Precision,
     /// Rayon threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -89,12 +94,12 @@ pub fn run(a: Args) -> Result<()> {
         a.layout
     };
     let backend = a.backend.unwrap_or_else(Backend::best);
-    let tracer = layout.tracer(&bvh, &scene.triangles, backend)?;
+    let tracer = layout.tracer_at(&bvh, &scene.triangles, backend, a.precision)?;
     // Secondary rays start at the primary hits of the tracer that generates them: sahara's
-    // kernels (which agree ray by ray), so that a foreign engine traces exactly the rays
-    // bvh* trace.
+    // exact kernels (which agree ray by ray), so that a foreign engine and the fast precision
+    // trace exactly the rays the exact bvh* trace.
     let reference = Bvh2Tracer::new(&bvh, &scene.triangles);
-    let generator: &dyn Tracer = if layout.is_foreign() {
+    let generator: &dyn Tracer = if layout.is_foreign() || a.precision != Precision::Exact {
         &reference
     } else {
         tracer.as_ref()
@@ -118,6 +123,7 @@ pub fn run(a: Args) -> Result<()> {
         &a.builder,
         layout,
         &layout.backend_name(backend),
+        a.precision,
         &set,
         a.threads,
         timing,
@@ -127,8 +133,8 @@ pub fn run(a: Args) -> Result<()> {
         println!("{}", serde_json::to_string(&r)?);
     } else {
         println!(
-            "scene      {} ({} triangles), builder {}, layout {} (backend {})",
-            r.scene, r.triangles, r.builder, r.layout, r.backend
+            "scene      {} ({} triangles), builder {}, layout {} (backend {}, precision {})",
+            r.scene, r.triangles, r.builder, r.layout, r.backend, r.precision
         );
         println!(
             "rays       {} {} rays on {} threads",

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use sahara_bvh::Bvh;
 use sahara_geom::{Ray, Triangle};
 use sahara_oracle::{judge_any, judge_closest_detailed, Class, Oracle, OracleRay};
-use sahara_traverse::{scalar, Hit, NoStats};
+use sahara_traverse::{scalar, Bvh8, Hit, NoStats};
 use std::fmt;
 
 /// The oracle over a scene's triangles.
@@ -200,6 +200,27 @@ pub fn pin_reference(
         let answers: Vec<Hit> = rays
             .par_iter()
             .map(|r| scalar::closest_hit(bvh, tris, r, &mut NoStats))
+            .collect();
+        pin_closest(oracle, rays, &answers)
+    }
+}
+
+/// Traces `rays` with the 8-wide kernels of `wide` at its precision
+/// ([`sahara_traverse::WideBvh::precision`]; closest hit, or any hit when `any`) and judges
+/// every answer with `oracle`. For [`Precision::Exact`](sahara_traverse::Precision::Exact) the
+/// answers are the reference's ([`pin_reference`]); for `Fast` this measures how often the
+/// non-watertight test misses a real hit or reports a false one.
+pub fn pin_wide(oracle: &Oracle, wide: &Bvh8, rays: &[Ray], any: bool) -> Tally {
+    if any {
+        let answers: Vec<bool> = rays
+            .par_iter()
+            .map(|r| wide.any_hit(r, &mut NoStats))
+            .collect();
+        pin_any(oracle, rays, &answers)
+    } else {
+        let answers: Vec<Hit> = rays
+            .par_iter()
+            .map(|r| wide.closest_hit(r, &mut NoStats))
             .collect();
         pin_closest(oracle, rays, &answers)
     }

@@ -27,6 +27,7 @@ pub use report::{measure_trace, report, TraceReport};
 use anyhow::{bail, Result};
 use sahara_geom::Triangle;
 use sahara_trace::{Backend, Bvh2Tracer, Tracer};
+use sahara_traverse::Precision;
 use std::fmt;
 use std::str::FromStr;
 
@@ -117,15 +118,40 @@ impl Engine {
         tris: &'a [Triangle],
         backend: Backend,
     ) -> Result<Box<dyn Tracer + 'a>> {
+        self.tracer_at(bvh, tris, backend, Precision::Exact)
+    }
+
+    /// [`Engine::tracer`] whose bvh4/bvh8 kernels run the triangle test of `precision`
+    /// (`docs/precision.md`). The binary layout has only the exact test (an error for
+    /// `Fast`); foreign engines run their own test whatever `precision` says (see
+    /// [`Engine::precision_name`]).
+    pub fn tracer_at<'a>(
+        self,
+        bvh: &'a sahara_bvh::Bvh,
+        tris: &'a [Triangle],
+        backend: Backend,
+        precision: Precision,
+    ) -> Result<Box<dyn Tracer + 'a>> {
         let _ = backend; // unused by some feature combinations
         match self {
-            Engine::Bvh2 => Ok(Box::new(Bvh2Tracer::new(bvh, tris))),
-            Engine::Bvh4 => Ok(Box::new(sahara_trace::WideTracer::<4>::with_backend(
-                bvh, tris, backend,
-            )?)),
-            Engine::Bvh8 => Ok(Box::new(sahara_trace::WideTracer::<8>::with_backend(
-                bvh, tris, backend,
-            )?)),
+            Engine::Bvh2 => {
+                anyhow::ensure!(
+                    precision == Precision::Exact,
+                    "bvh2 (the scalar reference) has only the exact triangle test; \
+                     --precision {precision} needs bvh4 or bvh8"
+                );
+                Ok(Box::new(Bvh2Tracer::new(bvh, tris)))
+            }
+            Engine::Bvh4 => {
+                let mut t = sahara_trace::WideTracer::<4>::with_backend(bvh, tris, backend)?;
+                t.wide.set_precision(precision);
+                Ok(Box::new(t))
+            }
+            Engine::Bvh8 => {
+                let mut t = sahara_trace::WideTracer::<8>::with_backend(bvh, tris, backend)?;
+                t.wide.set_precision(precision);
+                Ok(Box::new(t))
+            }
             // Embree builds (once per triangle slice) and traces its own BVH; `bvh` is unused.
             #[cfg(feature = "embree")]
             Engine::Embree => Ok(Box::new(embree::EmbreeTracer::with_backend(tris, backend)?)),
@@ -149,6 +175,17 @@ impl Engine {
                      --features {feature} -- trace ...` (docs/embree.md, docs/peers.md)"
                 )
             }
+        }
+    }
+
+    /// The `precision` field of a report of this engine traced at sahara's `precision`:
+    /// `exact` or `fast` for sahara's layouts, `native` for a foreign engine (its own,
+    /// non-watertight test).
+    pub fn precision_name(self, precision: Precision) -> &'static str {
+        if self.is_foreign() {
+            "native"
+        } else {
+            precision.name()
         }
     }
 
@@ -266,18 +303,36 @@ mod tests {
                         "sweep",
                         engine,
                         &engine.backend_name(b),
+                        Precision::Exact,
                         &set,
                         Some(1),
                         sahara_trace::Timing::from_samples(&[1e-3]),
                         &counted,
                     );
                     assert_eq!(r.checksum, format!("{want:016x}"), "{engine} {b} {kind}");
-                    assert_eq!(r.backend, b.name());
+                    assert_eq!(
+                        (r.backend.as_str(), r.precision.as_str()),
+                        (b.name(), "exact")
+                    );
                 }
             }
         }
         for b in Backend::ALL.into_iter().filter(|b| !b.is_available()) {
             assert!(Engine::Bvh8.tracer(&bvh, &scene.triangles, b).is_err());
         }
+        // The fast precision: bvh4 and bvh8 give the same answers; bvh2 refuses it; reports say it.
+        let set = ray_set("diffuse", &scene, &reference, 48, 32, 3).unwrap();
+        let fast = |e: Engine| {
+            let t = e
+                .tracer_at(&bvh, &scene.triangles, Backend::best(), Precision::Fast)
+                .unwrap();
+            trace_set(t.as_ref(), &set).checksum()
+        };
+        assert_eq!(fast(Engine::Bvh4), fast(Engine::Bvh8));
+        assert!(Engine::Bvh2
+            .tracer_at(&bvh, &scene.triangles, Backend::best(), Precision::Fast)
+            .is_err());
+        assert_eq!(Engine::Bvh8.precision_name(Precision::Fast), "fast");
+        assert_eq!(Engine::Embree.precision_name(Precision::Fast), "native");
     }
 }

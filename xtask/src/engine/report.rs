@@ -18,6 +18,8 @@ pub struct TraceReport {
     /// The kernels that ran: the SIMD backend of bvh4/bvh8, `scalar` for bvh2, the ISA asked
     /// of Embree (or `default`), `avx2` for tinybvh, `default` for obvhs.
     pub backend: String,
+    /// The triangle test: `exact` or `fast` for sahara's layouts, `native` for foreign engines.
+    pub precision: String,
     pub ray_kind: String,
     pub rays: usize,
     pub threads: usize,
@@ -58,6 +60,7 @@ pub fn report(
     builder: &str,
     engine: Engine,
     backend: &str,
+    precision: sahara_traverse::Precision,
     set: &RaySet,
     threads: Option<usize>,
     timing: sahara_trace::Timing,
@@ -71,6 +74,7 @@ pub fn report(
         builder: builder.to_string(),
         layout: engine.name().to_string(),
         backend: backend.to_string(),
+        precision: engine.precision_name(precision).to_string(),
         ray_kind: set.kind.name().to_string(),
         rays: set.len(),
         threads: util::thread_count(threads),

@@ -363,6 +363,7 @@ impl Run<'_> {
                         b,
                         *layout,
                         &layout.backend_name(backend),
+                        sahara_traverse::Precision::Exact,
                         set,
                         self.a.threads,
                         timing,

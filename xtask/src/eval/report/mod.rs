@@ -331,6 +331,7 @@ mod tests {
                             builder: b.to_string(),
                             layout: layout.to_string(),
                             backend: if *layout == "bvh2" { "scalar" } else { "sse2" }.into(),
+                            precision: "exact".into(),
                             ray_kind: kind.to_string(),
                             rays: 768,
                             threads: 2,
