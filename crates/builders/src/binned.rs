@@ -37,7 +37,6 @@
 //! assert!((c - sah(&bvh, &input.cost)).abs() <= 1e-9 * c);
 //! ```
 
-use crate::registry::Entry;
 use crate::split::binned::{self as bins, RefBins};
 pub use crate::split::binned::{FillBackend, PrimRef};
 use crate::split::{
@@ -198,36 +197,6 @@ pub fn binned_cost_only(input: &BuildInput, prims: &mut [u32], config: &BinnedCo
         *p = r.id();
     }
     c
-}
-
-/// Registry entries of this module: `binned` (32 bins), `binned-8` and `binned-128`.
-pub fn registry_entries() -> Vec<Entry> {
-    vec![
-        Entry {
-            name: "binned",
-            summary: "binned SAH (Wald 2007), 32 centroid bins per axis, leaves <= 8",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(BinnedBuilder::named("binned", BinnedConfig::DEFAULT)),
-        },
-        Entry {
-            name: "binned-8",
-            summary: "binned SAH with 8 bins per axis (fastest)",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(BinnedBuilder::named("binned-8", BinnedConfig::FAST)),
-        },
-        Entry {
-            name: "binned-128",
-            summary: "binned SAH with 128 bins per axis",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(BinnedBuilder::named("binned-128", BinnedConfig::FINE)),
-        },
-    ]
 }
 
 /// The rule: the cheapest binned plane by Eq. 2, a leaf when small enough and no plane is

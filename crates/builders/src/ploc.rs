@@ -33,8 +33,6 @@ use rayon::prelude::*;
 use sahara_bvh::Node;
 use sahara_geom::{Aabb, Vec3A};
 
-use crate::registry::Entry;
-use crate::reinsert::{Reinsert, ReinsertConfig};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 
 /// Configuration of the PLOC builder.
@@ -94,37 +92,6 @@ impl Strategy for PlocConfig {
 
 /// The PLOC builder, registered as `"ploc"`.
 pub type PlocBuilder = Configured<PlocConfig>;
-
-/// Registry entries of this module: `ploc` and `ploc+reinsert` (the light reinsertion budget).
-pub fn registry_entries() -> Vec<Entry> {
-    vec![
-        Entry {
-            name: "ploc",
-            summary:
-                "PLOC (Meister & Bittner 2018): parallel locally-ordered clustering, radius 16",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(PlocBuilder::default()),
-        },
-        Entry {
-            name: "ploc+reinsert",
-            summary: "PLOC, then reinsertion with the light budget",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || {
-                Box::new(Configured::named(
-                    "ploc+reinsert",
-                    Reinsert {
-                        base: PlocConfig::DEFAULT,
-                        config: ReinsertConfig::LIGHT,
-                    },
-                ))
-            },
-        },
-    ]
-}
 
 /// Spreads the low 21 bits of `v` to every third bit.
 fn spread(v: u64) -> u64 {

@@ -46,7 +46,6 @@ use sahara_bvh::Bvh;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use crate::registry::Entry;
 use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
 use crate::topdown::MemoView;
 use crate::tsah::engine::{self, offer_top_k, EngineParams, LocalNode, Rater};
@@ -173,36 +172,6 @@ impl Strategy for PopovConfig {
 
 /// The look-ahead SAH builder and its hybrid (named `"popov"` by [`Configured::new`]).
 pub type PopovBuilder = Configured<PopovConfig>;
-
-/// Registry entries of this module.
-pub fn registry_entries() -> Vec<Entry> {
-    vec![
-        Entry {
-            name: "popov-d2",
-            summary: "look-ahead SAH after Popov et al. 2009: depth 2, top-8 per level, frontier as leaves",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(PopovBuilder::named("popov-d2", PopovConfig::D2)),
-        },
-        Entry {
-            name: "popov-d3",
-            summary: "look-ahead SAH after Popov et al. 2009: depth 3, top-4 per level, frontier as leaves",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(PopovBuilder::named("popov-d3", PopovConfig::D3)),
-        },
-        Entry {
-            name: "hybrid",
-            summary: "look-ahead SAH (depth 2, best split per axis) with frontier nodes costed by temporary sweep subtrees (Popov et al. + Wodniok & Goesele)",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(PopovBuilder::named("hybrid", PopovConfig::HYBRID)),
-        },
-    ]
-}
 
 struct LookAhead {
     cost: CostModel,

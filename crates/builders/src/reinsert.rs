@@ -89,8 +89,7 @@ use sahara_bvh::Node;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use crate::registry::Entry;
-use crate::{BuildError, BuildInput, Builder, Bvh, Configured, Strategy};
+use crate::{BuildError, BuildInput, Builder, Bvh, Strategy};
 
 /// The knobs of the reinsertion optimiser. The defaults ([`ReinsertConfig::THOROUGH`]) were
 /// chosen from measurements on the shared and procedural scenes (see
@@ -923,62 +922,4 @@ impl Builder for ReinsertAfter {
         let bvh = self.inner.build(input)?;
         optimize(&bvh, &input.cost, &self.config).map_err(into_build_error)
     }
-}
-
-/// Registry entries of this module: the top-down builders followed by the thorough
-/// reinsertion.
-pub fn registry_entries() -> Vec<Entry> {
-    use crate::sbvh::SbvhConfig;
-    use crate::sweep::SweepConfig;
-    use crate::tsah::TsahConfig;
-    vec![
-        Entry {
-            name: "sweep+reinsert",
-            summary: "full-sweep SAH, then reinsertion (Meister & Bittner 2018)",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || {
-                Box::new(Configured::named(
-                    "sweep+reinsert",
-                    Reinsert {
-                        base: SweepConfig::DEFAULT,
-                        config: ReinsertConfig::THOROUGH,
-                    },
-                ))
-            },
-        },
-        Entry {
-            name: "sbvh+reinsert",
-            summary: "SBVH, then reinsertion (Meister & Bittner 2018)",
-            spatial: true,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || {
-                Box::new(Configured::named(
-                    "sbvh+reinsert",
-                    Reinsert {
-                        base: SbvhConfig::DEFAULT,
-                        config: ReinsertConfig::THOROUGH,
-                    },
-                ))
-            },
-        },
-        Entry {
-            name: "tsah-topk+reinsert",
-            summary: "temporary-subtree SAH (top-k), then reinsertion (Meister & Bittner 2018)",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || {
-                Box::new(Configured::named(
-                    "tsah-topk+reinsert",
-                    Reinsert {
-                        base: TsahConfig::TOP_K,
-                        config: ReinsertConfig::THOROUGH,
-                    },
-                ))
-            },
-        },
-    ]
 }

@@ -61,7 +61,6 @@
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use crate::registry::Entry;
 use crate::split::sweep::partition_in_place;
 pub use crate::split::sweep::{
     best_split, sorted_orders, split_orders, sweep_axis, SplitCandidate, SubtreeCost,
@@ -144,18 +143,6 @@ impl Strategy for SweepConfig {
 
 /// The full-sweep SAH builder, registered as `"sweep"`.
 pub type SweepBuilder = Configured<SweepConfig>;
-
-/// Registry entries of this module.
-pub fn registry_entries() -> Vec<Entry> {
-    vec![Entry {
-        name: "sweep",
-        summary: "full-sweep SAH (MacDonald & Booth 1990), the reference greedy builder",
-        spatial: false,
-        small_inputs_only: false,
-        max_practical_triangles: None,
-        make: || Box::new(SweepBuilder::default()),
-    }]
-}
 
 /// A node of a build over presorted orders: its segment of the three orders (which end up as
 /// the leaves' references) and of the scratch arrays.

@@ -51,7 +51,6 @@ mod median_cost;
 
 use sahara_bvh::Bvh;
 
-use crate::registry::Entry;
 use crate::sweep::{self, Marks, SplitCandidate, SubtreeCost, SweepScratch};
 use crate::topdown::{RootSplit, TopLevels};
 use crate::{BuildError, BuildInput, Configured, Strategy};
@@ -238,37 +237,6 @@ impl Strategy for TsahConfig {
 /// The temporary-subtree SAH builder of Wodniok & Goesele (named `"tsah"` by
 /// [`Configured::new`]).
 pub type TsahBuilder = Configured<TsahConfig>;
-
-/// Registry entries of this module.
-pub fn registry_entries() -> Vec<Entry> {
-    vec![
-        Entry {
-            name: "tsah-exhaustive",
-            summary: "temporary-subtree SAH (Wodniok & Goesele), every sweep candidate rated: reference, small inputs only",
-            spatial: false,
-            small_inputs_only: true,
-            // O(N^2.2) measured: 1.3 s at 1000, 6.1 s at 2000, 29 s at 4000 soup triangles.
-            max_practical_triangles: Some(5_000),
-            make: || Box::new(TsahBuilder::named("tsah-exhaustive", TsahConfig::EXHAUSTIVE)),
-        },
-        Entry {
-            name: "tsah-topk",
-            summary: "temporary-subtree SAH (Wodniok & Goesele), top-k sweep candidates, sweep temporaries: O(N log^2 N)",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(TsahBuilder::named("tsah-topk", TsahConfig::TOP_K)),
-        },
-        Entry {
-            name: "tsah-binned",
-            summary: "temporary-subtree SAH (Wodniok & Goesele), binned candidates and binned temporaries: the fastest variant",
-            spatial: false,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(TsahBuilder::named("tsah-binned", TsahConfig::BINNED)),
-        },
-    ]
-}
 
 /// Nodes at least this large rate the two sides of a candidate on two rayon tasks.
 const JOIN_SIDES: usize = 4096;

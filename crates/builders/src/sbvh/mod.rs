@@ -51,7 +51,6 @@ pub(crate) use rule::{
     decide, decide_with, initial_refs, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask,
 };
 
-use crate::registry::Entry;
 use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 
@@ -255,36 +254,4 @@ pub fn sbvh_cost_only(input: &BuildInput, prims: &[u32], config: &SbvhConfig) ->
         budget: config.budget_for(prims.len()),
     };
     topdown::cost(&SbvhRule(ctx), root, &input.cost, &mut Default::default()).cost
-}
-
-/// Registry entries of this module: `sbvh`, `sbvh-refined` and `sbvh-fast`.
-pub fn registry_entries() -> Vec<Entry> {
-    vec![
-        Entry {
-            name: "sbvh",
-            summary: "SBVH (Stich et al. 2009): full-sweep object splits + 128-bin spatial splits",
-            spatial: true,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(SbvhBuilder::new(SbvhConfig::DEFAULT)),
-        },
-        Entry {
-            name: "sbvh-refined",
-            summary: "SBVH with spatial splits searched coarse to fine (16 bins refined to 128)",
-            spatial: true,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(SbvhBuilder::named("sbvh-refined", SbvhConfig::REFINED)),
-        },
-        Entry {
-            name: "sbvh-fast",
-            summary:
-                "SBVH at Embree HIGH's pace: 32-bin object and spatial splits, spatial splits \
-                      only where the object split's sides overlap by 20% of their areas",
-            spatial: true,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(SbvhBuilder::named("sbvh-fast", SbvhConfig::FAST_GATED)),
-        },
-    ]
 }

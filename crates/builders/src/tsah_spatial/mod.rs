@@ -86,7 +86,6 @@
 
 mod rule;
 
-use crate::registry::Entry;
 use crate::sbvh::{initial_refs, Ctx as SbvhCtx, SbvhConfig, SbvhTask};
 use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
@@ -263,35 +262,3 @@ impl Strategy for TsahSpatialConfig {
 /// The temporary-subtree SAH builder with spatial splits. Parallel on rayon (nodes, candidates
 /// and temporary builds); the tree does not depend on the number of threads.
 pub type TsahSpatialBuilder = Configured<TsahSpatialConfig>;
-
-/// Registry entries of this module: `tsah-sbvh` and `tsah-sbvh-exact`.
-pub fn registry_entries() -> Vec<Entry> {
-    vec![
-        Entry {
-            name: "tsah-sbvh",
-            summary: "temporary-subtree SAH with spatial splits: 4 object + 4 spatial candidates \
-                  rated by cost-only SBVH-like temporaries (estimated spatial search)",
-            spatial: true,
-            small_inputs_only: false,
-            max_practical_triangles: None,
-            make: || Box::new(TsahSpatialBuilder::new(TsahSpatialConfig::DEFAULT)),
-        },
-        Entry {
-            name: "tsah-sbvh-exact",
-            summary: "the paper's spatial variant: tsah-sbvh with exact SBVH temporaries \
-                  (SAH never above sbvh's; about 4x tsah-sbvh's time)",
-            spatial: true,
-            small_inputs_only: false,
-            // Measured on two cores: 18 s for sponza_dabrovic (66k triangles), about 4.3x
-            // tsah-sbvh; the time grows slightly faster than linearly, so 150k triangles is near
-            // the one-minute mark the study's presets are held to.
-            max_practical_triangles: Some(150_000),
-            make: || {
-                Box::new(TsahSpatialBuilder::named(
-                    "tsah-sbvh-exact",
-                    TsahSpatialConfig::EXACT,
-                ))
-            },
-        },
-    ]
-}
