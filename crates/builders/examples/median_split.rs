@@ -3,7 +3,7 @@
 //! median_split`).
 
 use sahara_builders::registry::{self, Entry, RegistryError};
-use sahara_builders::topdown::{self, Step, TopDown};
+use sahara_builders::topdown::{self, Rule, Step};
 use sahara_builders::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use sahara_geom::Aabb;
 
@@ -41,7 +41,7 @@ struct Median<'a> {
     max_leaf: usize,
 }
 
-impl<'a> TopDown for Median<'a> {
+impl<'a> Rule for Median<'a> {
     type Task = &'a mut [u32];
     type Scratch = ();
 

@@ -37,12 +37,13 @@
 //! assert!((c - sah(&bvh, &input.cost)).abs() <= 1e-9 * c);
 //! ```
 
+use crate::cost_only;
 use crate::split::binned::{self as bins, RefBins};
 pub use crate::split::binned::{FillBackend, PrimRef};
 use crate::split::{
     float_key, half_area, imbalance, ranks_before, BinMap, PAR_CHUNK, PAR_NODE_THRESHOLD,
 };
-use crate::topdown::{self, Step, TopDown};
+use crate::topdown::{self, Rule, Step};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use glam::BVec3A;
 use rayon::prelude::*;
@@ -192,7 +193,7 @@ pub fn binned_cost_only(input: &BuildInput, prims: &mut [u32], config: &BinnedCo
         nb,
         depth: 0,
     };
-    let c = topdown::cost(&rule, root, &input.cost, &mut Scratch::default()).cost;
+    let c = cost_only::cost(&rule, root, &input.cost, &mut Scratch::default()).cost;
     for (p, r) in prims.iter_mut().zip(&refs) {
         *p = r.id();
     }
@@ -793,7 +794,7 @@ fn partition_par(refs: &mut [PrimRef], p: &Plane) -> Option<(usize, Aabb, Aabb)>
 /// thread).
 const PAR_PARTITION_THRESHOLD: usize = 4 * PAR_NODE_THRESHOLD;
 
-impl<'a> TopDown for BinnedRule<'a> {
+impl<'a> Rule for BinnedRule<'a> {
     type Task = BinTask<'a>;
     type Scratch = Scratch;
 

@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod binned;
+pub mod cost_only;
 mod input;
 pub mod ploc;
 pub mod popov;

@@ -46,8 +46,8 @@ use sahara_bvh::Bvh;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
+use crate::cost_only::MemoView;
 use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
-use crate::topdown::MemoView;
 use crate::tsah::engine::{self, offer_top_k, EngineParams, LocalNode, Rater};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput, Configured, Strategy};

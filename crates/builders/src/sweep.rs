@@ -15,7 +15,7 @@
 //! candidate (where all centroids coincide the sorted order still splits by position, and the
 //! balance tie-break makes that a median split).
 //!
-//! The rule is [`Greedy`], a [`TopDown`] hook over [`Job`]s (a node's segment of the three
+//! The rule is [`Greedy`], a [`Rule`] over [`Job`]s (a node's segment of the three
 //! sorted orders); the candidates come from [`crate::split::sweep`].
 //!
 //! # The cost-only build
@@ -23,7 +23,7 @@
 //! Besides [`SweepBuilder`], the module exposes the pieces the temporary-subtree builders of
 //! Wodniok & Goesele need: [`sweep_cost`] returns the SAH cost `c(T)` (Eq. 1, relative to the
 //! subset's own bounds) of exactly the tree the builder would make over a subset of the
-//! primitives, computed bottom-up without allocating a node ([`topdown::cost`] with the same
+//! primitives, computed bottom-up without allocating a node ([`cost_only::cost_with_top_levels`] with the same
 //! rule); [`split_orders`] derives the sorted orders of both sides of a candidate split from
 //! the sorted orders of a node, and [`sorted_orders`] produces the orders of any subset.
 //!
@@ -61,12 +61,14 @@
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
+pub use crate::cost_only::SubtreeCost;
+use crate::cost_only::{self, MemoKey, MemoView, Memoised, TopLevels};
 use crate::split::sweep::partition_in_place;
 pub use crate::split::sweep::{
-    best_split, sorted_orders, split_orders, sweep_axis, SplitCandidate, SubtreeCost,
+    best_split, sorted_orders, split_orders, sweep_axis, SplitCandidate,
 };
 pub use crate::split::Marks;
-use crate::topdown::{self, Step, TopDown};
+use crate::topdown::{self, Rule, Step};
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 
 /// Configuration of the full-sweep SAH builder.
@@ -242,8 +244,8 @@ pub struct Greedy<'a> {
     /// See [`SweepConfig::parallel_threshold`].
     pub parallel_threshold: usize,
     /// Cost-only builds: subtree costs shared with other cost-only builds over the same
-    /// primitives (see [`topdown::SubtreeMemo`]).
-    pub memo: Option<topdown::MemoView<'a>>,
+    /// primitives (see [`cost_only::SubtreeMemo`]).
+    pub memo: Option<MemoView<'a>>,
 }
 
 impl<'a> Greedy<'a> {
@@ -274,7 +276,7 @@ impl<'a> Greedy<'a> {
     }
 }
 
-impl<'a> TopDown for Greedy<'a> {
+impl<'a> Rule for Greedy<'a> {
     type Task = Job<'a>;
     type Scratch = ();
 
@@ -295,9 +297,11 @@ impl<'a> TopDown for Greedy<'a> {
     fn parallel_threshold(&self) -> usize {
         self.parallel_threshold
     }
+}
 
+impl<'a> Memoised for Greedy<'a> {
     #[inline]
-    fn memo(&self, job: &Job<'a>) -> Option<(topdown::MemoView<'_>, topdown::MemoKey)> {
+    fn memo(&self, job: &Job<'a>) -> Option<(MemoView<'_>, MemoKey)> {
         // A sweep subtree is a function of its set: any subset's orders are the global sorted
         // orders restricted to it.
         let m = self.memo?;
@@ -307,10 +311,10 @@ impl<'a> TopDown for Greedy<'a> {
     #[inline]
     fn child_memo<'s>(
         &'s self,
-        parent: &(topdown::MemoView<'s>, topdown::MemoKey),
+        parent: &(MemoView<'s>, MemoKey),
         left: &Job<'a>,
         right: &Job<'a>,
-    ) -> [Option<(topdown::MemoView<'s>, topdown::MemoKey)>; 2] {
+    ) -> [Option<(MemoView<'s>, MemoKey)>; 2] {
         // Only the smaller child is hashed; the larger one's key is the rest of the parent's.
         let (m, key) = *parent;
         let min = m.own.min_size();
@@ -380,7 +384,7 @@ pub fn sweep_cost(
 }
 
 /// [`sweep_cost`], and the costs of the top levels of the tree (see
-/// [`topdown::cost_with_top_levels`]): a node's split there is its subset's greedy split by
+/// [`cost_only::cost_with_top_levels`]): a node's split there is its subset's greedy split by
 /// Eq. 2, so its children's costs are the costs of the temporaries of that split's sides.
 pub fn sweep_cost_with_top_levels(
     bounds: &[Aabb],
@@ -389,12 +393,12 @@ pub fn sweep_cost_with_top_levels(
     cost: &CostModel,
     max_leaf_size: usize,
     scratch: &mut SweepScratch,
-) -> (SubtreeCost, topdown::TopLevels) {
+) -> (SubtreeCost, TopLevels) {
     sweep_cost_memo(bounds, orders, marks, cost, max_leaf_size, scratch, None)
 }
 
 /// [`sweep_cost_with_top_levels`] with the subtree costs of other cost-only sweep builds over
-/// the same `bounds`, `cost` and `max_leaf_size` ([`topdown::SubtreeMemo`]): subtrees over a
+/// the same `bounds`, `cost` and `max_leaf_size` ([`cost_only::SubtreeMemo`]): subtrees over a
 /// set of primitives found in `memo` are not built again, and the subtrees this build costs are
 /// added to it. The same values as without the memo (but for a key collision, about 2^-128).
 pub fn sweep_cost_memo(
@@ -404,12 +408,12 @@ pub fn sweep_cost_memo(
     cost: &CostModel,
     max_leaf_size: usize,
     scratch: &mut SweepScratch,
-    memo: Option<topdown::MemoView<'_>>,
-) -> (SubtreeCost, topdown::TopLevels) {
+    memo: Option<MemoView<'_>>,
+) -> (SubtreeCost, TopLevels) {
     let n = orders[0].len();
     assert!(orders[1].len() == n && orders[2].len() == n);
     if n == 0 {
-        return (SubtreeCost::ZERO, topdown::TopLevels::NONE);
+        return (SubtreeCost::ZERO, TopLevels::NONE);
     }
     if scratch.tmp.len() < n {
         scratch.tmp.resize(n, 0);
@@ -428,13 +432,13 @@ pub fn sweep_cost_memo(
         tmp: &mut scratch.tmp[..n],
         areas: &mut scratch.areas[..n],
     };
-    topdown::cost_with_top_levels(&rule, job, cost, &mut ())
+    cost_only::cost_with_top_levels(&rule, job, cost, &mut ())
 }
 
 #[cfg(test)]
 mod memo_tests {
     use super::*;
-    use crate::topdown::{MemoView, SubtreeMemo, TopLevels};
+    use crate::cost_only::SubtreeMemo;
     use sahara_geom::rng::Pcg32;
     use sahara_geom::Vec3A;
 
@@ -513,7 +517,6 @@ mod memo_tests {
     /// the memo's smallest size is not keyed.
     #[test]
     fn derived_child_keys_are_the_childrens_keys() {
-        use crate::topdown::TopDown;
         let mut r = Pcg32::new(5, 9);
         for case in 0..60 {
             let n = 20 + (r.next_u32() % 400) as usize;

@@ -51,8 +51,8 @@ mod median_cost;
 
 use sahara_bvh::Bvh;
 
-use crate::sweep::{self, Marks, SplitCandidate, SubtreeCost, SweepScratch};
-use crate::topdown::{RootSplit, TopLevels};
+use crate::cost_only::{RootSplit, SubtreeCost, TopLevels};
+use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
 use crate::{BuildError, BuildInput, Configured, Strategy};
 use binned_cost::{binned_cost, BinnedScratch};
 use engine::{EngineParams, LocalNode, Rater};

@@ -51,6 +51,7 @@ pub(crate) use rule::{
     decide, decide_with, initial_refs, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask,
 };
 
+use crate::cost_only;
 use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 
@@ -253,5 +254,5 @@ pub fn sbvh_cost_only(input: &BuildInput, prims: &[u32], config: &SbvhConfig) ->
         depth: 0,
         budget: config.budget_for(prims.len()),
     };
-    topdown::cost(&SbvhRule(ctx), root, &input.cost, &mut Default::default()).cost
+    cost_only::cost(&SbvhRule(ctx), root, &input.cost, &mut Default::default()).cost
 }

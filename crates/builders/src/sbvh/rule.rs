@@ -1,4 +1,4 @@
-//! The SBVH rule as a [`TopDown`] hook, shared with the spatial temporary-subtree builder
+//! The SBVH rule as a [`Rule`], shared with the spatial temporary-subtree builder
 //! ([`crate::tsah_spatial`]), which rates its candidates with temporaries built by the same
 //! rule (or by [`decide_with`] and cheaper searches).
 
@@ -14,7 +14,7 @@ use crate::split::object::{
 use crate::split::spatial::{
     apply_spatial, child_budgets, refined_spatial_search, spatial_search, Clipper, SpatialCand,
 };
-use crate::topdown::{Step, TopDown};
+use crate::topdown::{Rule, Step};
 use crate::BuildInput;
 
 /// The references of all primitives (or of a subset) with their full boxes.
@@ -262,10 +262,10 @@ impl SbvhTask {
     }
 }
 
-/// The SBVH rule as a [`TopDown`] hook.
+/// The SBVH rule as a [`Rule`].
 pub(crate) struct SbvhRule<'a>(pub Ctx<'a>);
 
-impl TopDown for SbvhRule<'_> {
+impl Rule for SbvhRule<'_> {
     type Task = SbvhTask;
     type Scratch = ObjectScratch;
 

@@ -57,24 +57,6 @@ impl SplitCandidate {
     }
 }
 
-/// The SAH cost of a (temporary) subtree and the half area of its root's bounds.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SubtreeCost {
-    /// `c(T)` of Eq. 1, relative to the subtree root's own bounds (the expected cost of a ray
-    /// that hits the root's box).
-    pub cost: f64,
-    /// Half the surface area of the root's bounds (as `f64`).
-    pub area: f64,
-}
-
-impl SubtreeCost {
-    /// The cost of nothing.
-    pub const ZERO: SubtreeCost = SubtreeCost {
-        cost: 0.0,
-        area: 0.0,
-    };
-}
-
 /// The three sorted orders of a subset of primitives: `ids` sorted by centroid along x, y and
 /// z, each by the total order of `f32::total_cmp` with ties broken by the primitive id. Runs
 /// the three sorts in parallel.

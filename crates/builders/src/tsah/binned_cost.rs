@@ -14,10 +14,10 @@
 use sahara_geom::{Aabb, Vec3A};
 use sahara_metrics::CostModel;
 
+use crate::cost_only::{self, SubtreeCost};
 use crate::split::binned::{self, Bin};
 use crate::split::{imbalance, ranks_before, BinMap, Suffix};
-use crate::sweep::SubtreeCost;
-use crate::topdown::{self, Step, TopDown};
+use crate::topdown::{Rule, Step};
 
 /// Reusable buffers of [`binned_cost`].
 #[derive(Debug, Default)]
@@ -88,10 +88,10 @@ pub(crate) fn binned_cost(
         bounds,
         centroids,
     };
-    topdown::cost(&rule, task, cost, scratch)
+    cost_only::cost(&rule, task, cost, scratch)
 }
 
-impl<'a> TopDown for BinnedRule<'a> {
+impl<'a> Rule for BinnedRule<'a> {
     type Task = BoxTask<'a>;
     type Scratch = BinnedScratch;
 

@@ -1,5 +1,5 @@
 //! The top-down rule shared by the temporary-subtree builders ([`crate::tsah`]) and the
-//! look-ahead builders ([`crate::popov`]), as a [`TopDown`] hook: at every node, sweep the
+//! look-ahead builders ([`crate::popov`]), as a [`Rule`]: at every node, sweep the
 //! three sorted orders (Eq. 2 at every position), select candidate splits, rate each with a
 //! [`Rater`] (in parallel for large nodes), take the cheapest (deterministic tie-break), decide
 //! leaf or split. Nodes at or below `greedy_below` primitives are split by the plain sweep rule
@@ -11,9 +11,10 @@ use rayon::prelude::*;
 use sahara_bvh::Bvh;
 use sahara_geom::{Aabb, Vec3A};
 
+use crate::cost_only::{MemoView, RootSplit, SubtreeMemo, TopLevels};
 use crate::split::{offer, BinMap, Marks};
 use crate::sweep::{self, Greedy, Job, JobStorage, SplitCandidate};
-use crate::topdown::{self, MemoView, RootSplit, Step, SubtreeMemo, TopDown, TopLevels};
+use crate::topdown::{self, Rule, Step};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput};
 use std::sync::Arc;
@@ -161,7 +162,7 @@ pub(crate) fn build<R: Rater>(
     Ok(topdown::build(&rule, storage.root().into(), false))
 }
 
-impl<'a, R: Rater> TopDown for Rated<'a, R> {
+impl<'a, R: Rater> Rule for Rated<'a, R> {
     type Task = Hinted<'a>;
     type Scratch = R::Scratch;
 

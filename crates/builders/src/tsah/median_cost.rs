@@ -6,7 +6,7 @@
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use crate::sweep::SubtreeCost;
+use crate::cost_only::SubtreeCost;
 
 /// The cost of a median-split tree over `boxes` (reordered in place). Deterministic: the
 /// same boxes in the same order give the same cost. `boxes` must not be empty.

@@ -1,17 +1,18 @@
 //! The rule of the spatial temporary-subtree builder (candidates rated by temporaries) and
-//! the rule of its estimated temporaries, both as [`TopDown`] hooks over SBVH tasks.
+//! the rule of its estimated temporaries, both as [`Rule`]s over SBVH tasks.
 
 use rayon::prelude::*;
 use sahara_geom::Aabb;
 
 use super::{TemporarySearch, TsahSpatialConfig};
+use crate::cost_only;
 use crate::sbvh::{decide, decide_with, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask};
 use crate::split::half_area;
 use crate::split::object::{
     apply_object, refs_bounds, ObjectCand, ObjectScratch, ObjectSearch, Ref,
 };
 use crate::split::spatial::{estimated_spatial_search, EstimateScratch, SpatialCand};
-use crate::topdown::{self, Step, TopDown};
+use crate::topdown::{Rule, Step};
 
 /// Candidates are chosen among this many times the requested number of best splits.
 pub(super) const CANDIDATE_POOL: usize = 4;
@@ -32,7 +33,7 @@ enum Candidate {
     Spatial(SpatialCand),
 }
 
-impl TopDown for SpatialRated<'_> {
+impl Rule for SpatialRated<'_> {
     type Task = SbvhTask;
     type Scratch = ObjectScratch;
 
@@ -146,7 +147,7 @@ impl SpatialRated<'_> {
         let cost = &self.temporary.cost;
         let c = match self.cfg.temporary_search {
             TemporarySearch::Exact => {
-                topdown::cost(&SbvhRule(self.temporary), t, cost, &mut Default::default())
+                cost_only::cost(&SbvhRule(self.temporary), t, cost, &mut Default::default())
             }
             TemporarySearch::Estimated {
                 bins_per_ref,
@@ -159,7 +160,7 @@ impl SpatialRated<'_> {
                     min_bins,
                     refine,
                 };
-                topdown::cost(&rule, t, cost, &mut Default::default())
+                cost_only::cost(&rule, t, cost, &mut Default::default())
             }
         };
         (c.cost, c.area)
@@ -175,7 +176,7 @@ struct Estimated<'a> {
     refine: usize,
 }
 
-impl TopDown for Estimated<'_> {
+impl Rule for Estimated<'_> {
     type Task = SbvhTask;
     type Scratch = (ObjectScratch, EstimateScratch);
 
