@@ -33,6 +33,7 @@ pub mod ploc;
 pub mod popov;
 pub mod registry;
 pub mod reinsert;
+pub mod rules;
 pub mod sbvh;
 pub mod simd;
 pub mod split;

@@ -21,7 +21,7 @@
 //! a leaf.
 //!
 //! The **hybrid** ([`Frontier::Temporary`]) costs the frontier nodes with temporary sweep SAH
-//! subtrees, `LA(S, 0) = c(T_S)` (the cost-only [`crate::sweep::sweep_cost`]), instead of as
+//! subtrees, `LA(S, 0) = c(T_S)` (the cost-only [`crate::rules::greedy::sweep_cost`]), instead of as
 //! leaves; with `depth = 1` it is exactly the top-k temporary-subtree builder.
 //!
 //! ```
@@ -47,7 +47,9 @@ use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
 use crate::cost_only::MemoView;
-use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
+use crate::rules::greedy::{sweep_cost_memo, SweepScratch};
+use crate::split::orders::{split_orders, Marks};
+use crate::split::sweep::{sweep_axis, SplitCandidate};
 use crate::tsah::engine::{self, offer_top_k, EngineParams, LocalNode, Rater};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput, Configured, Strategy};
@@ -220,7 +222,7 @@ impl LookAhead {
                 Frontier::Leaf => self.cost.leaf_cost(n),
                 Frontier::Temporary => {
                     let [a, b, c] = orders;
-                    sweep::sweep_cost_memo(
+                    sweep_cost_memo(
                         bounds,
                         [a, b, c],
                         marks,
@@ -239,7 +241,7 @@ impl LookAhead {
         let mut node = Aabb::EMPTY;
         for (axis, order) in orders.iter().enumerate() {
             let list = &mut lists[if self.per_axis { axis } else { 0 }];
-            node = sweep::sweep_axis(bounds, order, axis, &mut areas, &self.cost, |c| {
+            node = sweep_axis(bounds, order, axis, &mut areas, &self.cost, |c| {
                 offer_top_k(list, self.k, c, n)
             });
         }
@@ -277,7 +279,7 @@ fn split(orders: [&[u32]; 3], c: &SplitCandidate, marks: &Marks) -> ([Vec<u32>; 
     {
         let [l0, l1, l2] = &mut left;
         let [r0, r1, r2] = &mut right;
-        sweep::split_orders(orders, c.axis, c.pos, marks, [l0, l1, l2], [r0, r1, r2]);
+        split_orders(orders, c.axis, c.pos, marks, [l0, l1, l2], [r0, r1, r2]);
     }
     (left, right)
 }

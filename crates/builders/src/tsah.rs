@@ -13,7 +13,7 @@
 //! It takes the cheapest candidate (the node becomes a leaf when `n c_i` is not above that
 //! cost and it has at most [`TsahConfig::max_leaf_size`] primitives), throws the temporaries
 //! away and recurses with the same rule. Temporaries only need their cost: they are computed
-//! by the cost-only builds [`crate::sweep::sweep_cost`] (or a cost-only binned build) and
+//! by the cost-only builds [`crate::rules::greedy::sweep_cost`] (or a cost-only binned build) and
 //! allocate no nodes. The candidates of a node are rated in parallel on rayon and the cheapest
 //! is found with the same deterministic tie-break as the sweep builder, so the tree does not
 //! depend on the number of threads.
@@ -52,7 +52,9 @@ mod median_cost;
 use sahara_bvh::Bvh;
 
 use crate::cost_only::{RootSplit, SubtreeCost, TopLevels};
-use crate::sweep::{self, Marks, SplitCandidate, SweepScratch};
+use crate::rules::greedy::{sweep_cost_memo, SweepScratch};
+use crate::split::orders::{split_orders_padded, Marks};
+use crate::split::sweep::SplitCandidate;
 use crate::{BuildError, BuildInput, Configured, Strategy};
 use binned_cost::{binned_cost, BinnedScratch};
 use engine::{EngineParams, LocalNode, Rater};
@@ -92,7 +94,7 @@ pub enum Candidates {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Temporary {
     /// Full-sweep SAH, exactly the tree [`crate::sweep::SweepBuilder`] would build (same
-    /// `max_leaf_size`), via the cost-only [`crate::sweep::sweep_cost`].
+    /// `max_leaf_size`), via the cost-only [`crate::rules::greedy::sweep_cost`].
     Sweep,
     /// Binned SAH with this many bins per axis (at least 2), by a cost-only binned build
     /// over the node's centroid bounds (Wald 2007).
@@ -360,7 +362,7 @@ pub(crate) fn sweep_sides(
     {
         let [l0, l1, l2] = &mut *left;
         let [r0, r1, r2] = &mut *right;
-        crate::split::sweep::split_orders_padded(
+        split_orders_padded(
             node.orders(),
             c.axis,
             c.pos,
@@ -374,7 +376,7 @@ pub(crate) fn sweep_sides(
         let [a, b, c] = o;
         let len = a.len() - 1;
         let (a, b, c) = (&mut a[..len], &mut b[..len], &mut c[..len]);
-        sweep::sweep_cost_memo(
+        sweep_cost_memo(
             &node.bounds,
             [a, b, c],
             marks,

@@ -2,9 +2,9 @@
 
 mod tsah_support;
 
-use sahara_builders::sweep::{
-    sorted_orders, split_orders, sweep_cost, Marks, SweepBuilder, SweepConfig, SweepScratch,
-};
+use sahara_builders::rules::greedy::{sweep_cost, SweepScratch};
+use sahara_builders::split::orders::{sorted_orders, split_orders, Marks};
+use sahara_builders::sweep::{SweepBuilder, SweepConfig};
 use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};

@@ -2,15 +2,16 @@
 //! ordered. Every builder, every temporary subtree and every estimate uses it.
 //!
 //! * [`sweep`]: the full sweep over centroid-sorted orders (all `n - 1` positions of each
-//!   axis), the sorted orders themselves and their stable partition;
+//!   axis);
+//! * [`orders`]: the sorted orders themselves and their stable partitions ([`orders::Marks`]:
+//!   a flag per primitive);
 //! * [`binned`]: equal-width centroid bins (one fill, one plane sweep);
 //! * [`spatial`]: spatial-split binning with reference clipping (SBVH), its cheap box estimate,
 //!   and the application of a spatial split (clipping, reference unsplitting);
 //!
 //! and here the pieces they share: [`BinMap`] (equal-width bins on one axis), [`float_key`]
 //! (sortable keys of floats), [`imbalance`] and [`ranks_before`] (the tie-break every search
-//! uses), [`offer`] (keep the `k` best candidates) and [`Marks`] (a flag per primitive for stable
-//! partitions).
+//! uses) and [`offer`] (keep the `k` best candidates).
 //!
 //! The searches enumerate candidates and report their geometry (the bounds, areas and counts
 //! of both sides) to a visitor; what a candidate is worth (Eq. 2, a temporary subtree, a
@@ -26,10 +27,9 @@
 
 pub mod binned;
 pub mod object;
+pub mod orders;
 pub mod spatial;
 pub mod sweep;
-
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use sahara_geom::Aabb;
 
@@ -217,67 +217,6 @@ pub fn offer<T>(list: &mut Vec<T>, k: usize, item: T, better: impl Fn(&T, &T) ->
         .position(|x| better(&item, x))
         .unwrap_or(list.len());
     list.insert(pos, item);
-}
-
-/// One flag per primitive id, shareable between threads that work on disjoint sets of ids
-/// (relaxed atomics, which cost nothing on common hardware).
-///
-/// [`sweep::split_orders`] and [`sweep::partition_in_place`] set flags while they partition
-/// and clear them again before returning, so a `Marks` with every flag clear can be reused for
-/// any number of calls, and concurrent calls on disjoint id sets may share one.
-pub struct Marks {
-    flags: Vec<AtomicBool>,
-}
-
-impl Marks {
-    /// `len` clear flags, for ids `0..len`.
-    pub fn new(len: usize) -> Self {
-        Self {
-            flags: (0..len).map(|_| AtomicBool::new(false)).collect(),
-        }
-    }
-
-    /// Makes room for ids `0..len` (new flags are clear; never shrinks).
-    pub fn reserve_ids(&mut self, len: usize) {
-        if self.flags.len() < len {
-            self.flags.resize_with(len, || AtomicBool::new(false));
-        }
-    }
-
-    /// Number of flags.
-    pub fn len(&self) -> usize {
-        self.flags.len()
-    }
-
-    /// True when there is no flag.
-    pub fn is_empty(&self) -> bool {
-        self.flags.is_empty()
-    }
-
-    /// Sets flag `id` to `value`.
-    #[inline]
-    pub fn set(&self, id: u32, value: bool) {
-        self.flags[id as usize].store(value, Ordering::Relaxed);
-    }
-
-    /// Flag `id`.
-    #[inline]
-    pub fn get(&self, id: u32) -> bool {
-        self.flags[id as usize].load(Ordering::Relaxed)
-    }
-}
-
-impl Default for Marks {
-    /// No flags (see [`Marks::reserve_ids`]).
-    fn default() -> Self {
-        Self::new(0)
-    }
-}
-
-impl std::fmt::Debug for Marks {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Marks").field("len", &self.len()).finish()
-    }
 }
 
 /// What a sweep keeps of the suffix (right side) of each position: only its area, or its

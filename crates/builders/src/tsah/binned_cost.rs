@@ -241,7 +241,8 @@ fn partition(seg: &mut [Aabb], left: impl Fn(Vec3A) -> bool) -> (usize, Aabb, Aa
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sweep::{sorted_orders, sweep_cost, Marks, SweepScratch};
+    use crate::rules::greedy::{sweep_cost, SweepScratch};
+    use crate::split::orders::{sorted_orders, Marks};
     use sahara_geom::rng::Pcg32;
 
     fn boxes(n: usize) -> Vec<Aabb> {

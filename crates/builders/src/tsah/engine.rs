@@ -12,8 +12,10 @@ use sahara_bvh::Bvh;
 use sahara_geom::{Aabb, Vec3A};
 
 use crate::cost_only::{MemoView, RootSplit, SubtreeMemo, TopLevels};
-use crate::split::{offer, BinMap, Marks};
-use crate::sweep::{self, Greedy, Job, JobStorage, SplitCandidate};
+use crate::rules::greedy::{Greedy, Job, JobStorage, PARALLEL_THRESHOLD};
+use crate::split::orders::Marks;
+use crate::split::sweep::{sweep_axis, SplitCandidate};
+use crate::split::{offer, BinMap};
 use crate::topdown::{self, Rule, Step};
 use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput};
@@ -150,7 +152,7 @@ pub(crate) fn build<R: Rater>(
             cost: input.cost,
             max_leaf: params.max_leaf_size.max(1),
             marks: &marks,
-            parallel_threshold: sweep::SweepConfig::DEFAULT.parallel_threshold,
+            parallel_threshold: PARALLEL_THRESHOLD,
             memo: None,
         },
         centroids: input.centroids(),
@@ -307,7 +309,7 @@ impl<'a, R: Rater> Rated<'a, R> {
         let mut greedy = SplitCandidate::fallback(n);
         let mut node_bounds = Aabb::EMPTY;
         for (axis, order) in orders.iter().enumerate() {
-            node_bounds = sweep::sweep_axis(g.bounds, order, axis, job.areas, &g.cost, |c| {
+            node_bounds = sweep_axis(g.bounds, order, axis, job.areas, &g.cost, |c| {
                 if c.better_than(&greedy, n) {
                     greedy = c;
                 }

@@ -1,17 +1,22 @@
 //! The full sweep (MacDonald & Booth 1990): the primitives of a node sorted by centroid on
 //! each axis, and every one of the `n - 1` positions of each order as a candidate.
 //!
-//! [`sweep_order`] is the one sweep: suffix bounds right to left, then the left side grown
-//! left to right, each position handed to a visitor with both sides' geometry.
-//! [`sweep_axis`] and [`best_split`] rate the positions by Eq. 2 as [`SplitCandidate`]s (the
-//! greedy builders and the candidate selection of the paper's builders); the SBVH object
-//! search rates them by area-count score through the same sweep. [`sorted_orders`],
-//! [`split_orders`] and [`partition_in_place`] keep the orders sorted through a split.
+//! [`suffix_pass`] and [`prefix_pass`] are the one sweep: suffix bounds right to left, then
+//! the left side grown left to right, each position handed to a visitor with both sides'
+//! geometry. [`sweep_axis`] and [`best_split`] rate the positions by Eq. 2 as
+//! [`SplitCandidate`]s (the greedy builders and the candidate selection of the paper's
+//! builders); the SBVH object search rates them by area-count score through the same sweep.
+//! The orders themselves, and how they stay sorted through a split, are
+//! [`super::orders`]; on x86-64 the greedy search runs four positions at a time
+//! (`batched.rs`), bit for bit its scalar twin.
 
-use sahara_geom::{Aabb, Vec3A};
+use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use super::{imbalance, ranks_before, sort_by_key, Marks, Suffix, PAR_AXES_THRESHOLD};
+use super::{imbalance, ranks_before, Suffix, PAR_AXES_THRESHOLD};
+
+#[cfg(target_arch = "x86_64")]
+pub(in crate::split) mod batched;
 
 /// A candidate split of a node whose primitives are sorted by centroid along `axis`: the first
 /// `pos` primitives of that order go left, the others right.
@@ -55,24 +60,6 @@ impl SplitCandidate {
             right_area: f64::INFINITY,
         }
     }
-}
-
-/// The three sorted orders of a subset of primitives: `ids` sorted by centroid along x, y and
-/// z, each by the total order of `f32::total_cmp` with ties broken by the primitive id. Runs
-/// the three sorts in parallel.
-pub fn sorted_orders(centroids: &[Vec3A], ids: &[u32]) -> [Vec<u32>; 3] {
-    let sort_axis = |axis: usize| {
-        let mut keys = Vec::new();
-        sort_by_key(&mut keys, ids.len(), |i| {
-            (centroids[ids[i] as usize][axis], ids[i])
-        });
-        keys.into_iter().map(|k| k as u32).collect::<Vec<u32>>()
-    };
-    let (x, (y, z)) = rayon::join(
-        || sort_axis(0),
-        || rayon::join(|| sort_axis(1), || sort_axis(2)),
-    );
-    [x, y, z]
 }
 
 /// The first pass of a sweep over one sorted order of `n >= 1` items whose boxes are
@@ -467,318 +454,12 @@ pub fn best_split(
     (node, best)
 }
 
-/// Splits the sorted orders of a node by a candidate into new arrays: the first `pos` ids of
-/// `orders[axis]` go left, the rest right; `left[a]` and `right[a]` receive the ids of each
-/// side in the order of `orders[a]` (a stable partition, so they stay sorted). `left` slices
-/// must hold `pos` ids and `right` slices `n - pos`. `marks` must cover every id and have the
-/// ids' flags clear; they are clear again on return.
-///
-/// # Panics
-/// If the slice lengths do not match, or `pos` is not in `1..n`.
-pub fn split_orders(
-    orders: [&[u32]; 3],
-    axis: usize,
-    pos: usize,
-    marks: &Marks,
-    left: [&mut [u32]; 3],
-    right: [&mut [u32]; 3],
-) {
-    split_orders_into::<0>(orders, axis, pos, marks, left, right);
-}
-
-/// [`split_orders`] into buffers one id longer than the sides (`left[k].len() == pos + 1`,
-/// `right[k].len() == n - pos + 1`; the last id of each is scratch), without a branch per id:
-/// on the orders not split, whether an id goes left is not predictable, so each id is written
-/// at both cursors and only its side's cursor advances (the other write is overwritten later,
-/// or lands in the spare last slot). The split order itself is copied.
-pub(crate) fn split_orders_padded(
-    orders: [&[u32]; 3],
-    axis: usize,
-    pos: usize,
-    marks: &Marks,
-    left: [&mut [u32]; 3],
-    right: [&mut [u32]; 3],
-) {
-    split_orders_into::<1>(orders, axis, pos, marks, left, right);
-}
-
-/// [`split_orders`] (`PAD == 0`, exact buffers, a branch per id) or
-/// [`split_orders_padded`] (`PAD == 1`).
-fn split_orders_into<const PAD: usize>(
-    orders: [&[u32]; 3],
-    axis: usize,
-    pos: usize,
-    marks: &Marks,
-    left: [&mut [u32]; 3],
-    right: [&mut [u32]; 3],
-) {
-    let n = orders[axis].len();
-    assert!(pos > 0 && pos < n, "split position {pos} outside 1..{n}");
-    for &id in &orders[axis][..pos] {
-        marks.set(id, true);
-    }
-    for (k, ((order, l), r)) in orders.iter().zip(left).zip(right).enumerate() {
-        assert_eq!(order.len(), n);
-        assert_eq!(l.len(), pos + PAD);
-        assert_eq!(r.len(), n - pos + PAD);
-        let (mut li, mut ri) = (0, 0);
-        if PAD == 0 {
-            for &id in order.iter() {
-                if marks.get(id) {
-                    l[li] = id;
-                    li += 1;
-                } else {
-                    r[ri] = id;
-                    ri += 1;
-                }
-            }
-        } else if k == axis {
-            l[..pos].copy_from_slice(&order[..pos]);
-            r[..n - pos].copy_from_slice(&order[pos..]);
-            li = pos;
-        } else {
-            for &id in order.iter() {
-                let m = marks.get(id) as usize;
-                // `li <= pos` and `ri <= n - pos` before every write (each counts the ids of
-                // its side seen so far), inside the padded buffers.
-                l[li] = id;
-                r[ri] = id;
-                li += m;
-                ri += 1 - m;
-            }
-        }
-        assert_eq!(li, pos, "orders do not hold the same ids");
-    }
-    for &id in &orders[axis][..pos] {
-        marks.set(id, false);
-    }
-}
-
-/// Stable partition of a node's orders in place by a split: the first `pos` ids of
-/// `orders[axis]` stay in front on every axis, in their order. `tmp.len() >= n`.
-pub fn partition_in_place(
-    orders: &mut [&mut [u32]; 3],
-    axis: usize,
-    pos: usize,
-    marks: &Marks,
-    tmp: &mut [u32],
-) {
-    for &id in orders[axis][..pos].iter() {
-        marks.set(id, true);
-    }
-    // The marked ids to the front, the others (through `tmp`) behind them, in order. Without
-    // a branch on the flag (it is unpredictable on the orders not split): each id is written
-    // to both places and only the cursor of its side advances. A write to `order[l]` never
-    // overtakes the read (`l <= j`), and what an unmarked id leaves at `order[l]` is
-    // overwritten later (by a marked id, or by the copy of `tmp` when `l == pos`). `tmp` needs
-    // room for `n` ids: a marked id is written at `tmp[r]` with `r <= n - pos`.
-    let part = |order: &mut [u32], tmp: &mut [u32]| {
-        let n = order.len();
-        let tmp = &mut tmp[..n];
-        let (mut l, mut r) = (0, 0);
-        for j in 0..n {
-            let id = order[j];
-            let m = marks.get(id) as usize;
-            // SAFETY: `l + r == j < n` before the writes (each step advances one of them), and
-            // both slices hold `n` ids.
-            unsafe {
-                *order.get_unchecked_mut(l) = id;
-                *tmp.get_unchecked_mut(r) = id;
-            }
-            l += m;
-            r += 1 - m;
-        }
-        debug_assert_eq!(l, pos);
-        order[pos..].copy_from_slice(&tmp[..r]);
-    };
-    let [o0, o1, o2] = orders;
-    let (a, b): (&mut [u32], &mut [u32]) = match axis {
-        0 => (&mut **o1, &mut **o2),
-        1 => (&mut **o0, &mut **o2),
-        _ => (&mut **o0, &mut **o1),
-    };
-    if a.len() >= PAR_AXES_THRESHOLD && rayon::current_num_threads() > 1 {
-        // Both orders at once (the marks are only read), the second through its own buffer.
-        let mut tmp2 = vec![0u32; b.len()];
-        rayon::join(|| part(a, tmp), || part(b, &mut tmp2));
-    } else {
-        part(a, tmp);
-        part(b, tmp);
-    }
-    for &id in orders[axis][..pos].iter() {
-        marks.set(id, false);
-    }
-}
-
-/// [`best_on_axis`] four positions at a time (SSE2, part of x86-64): the boxes are still grown
-/// one by one, but the half areas of four consecutive boxes are computed side by side (their
-/// extents transposed into lanes) and Eq. 2's scores of four positions are compared with the
-/// pruning bound `s0` at once; the positions that survive are then rated one by one, in order,
-/// exactly as [`best_on_axis_scalar`] rates them. Every lane performs the scalar code's `f32`
-/// and `f64` operations in the same order (no FMA), so areas, scores, costs and the chosen
-/// candidate are bit for bit the scalar ones (tested against it).
-#[cfg(target_arch = "x86_64")]
-pub(in crate::split) mod batched {
-    use super::{CostModel, PositionRater, SplitCandidate};
-    use sahara_geom::{Aabb, Vec3A};
-    use std::arch::x86_64::*;
-
-    /// How many positions ahead the sweeps prefetch the boxes they will read.
-    const PREFETCH: usize = 48;
-
-    /// Asks for the cache line of `b`.
-    #[inline(always)]
-    fn prefetch(b: &Aabb) {
-        // SAFETY: a prefetch never faults; SSE is part of x86-64.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((b as *const Aabb).cast()) }
-    }
-
-    /// The extent of `b` as `Aabb::half_area` computes it (`Aabb::extent`).
-    #[inline(always)]
-    pub(in crate::split) fn extent(b: &Aabb) -> __m128 {
-        b.extent().into()
-    }
-
-    /// `x·y + y·z + z·x` of four extents (one per lane), with the operations and order of
-    /// `Aabb::half_area`.
-    #[inline(always)]
-    pub(in crate::split) fn half_areas4(e: [__m128; 4]) -> __m128 {
-        // SAFETY: SSE2 is part of x86-64.
-        unsafe {
-            let t0 = _mm_unpacklo_ps(e[0], e[1]); // x0 x1 y0 y1
-            let t1 = _mm_unpacklo_ps(e[2], e[3]); // x2 x3 y2 y3
-            let t2 = _mm_unpackhi_ps(e[0], e[1]); // z0 z1 . .
-            let t3 = _mm_unpackhi_ps(e[2], e[3]); // z2 z3 . .
-            let x = _mm_movelh_ps(t0, t1);
-            let y = _mm_movehl_ps(t1, t0);
-            let z = _mm_movelh_ps(t2, t3);
-            _mm_add_ps(
-                _mm_add_ps(_mm_mul_ps(x, y), _mm_mul_ps(y, z)),
-                _mm_mul_ps(z, x),
-            )
-        }
-    }
-
-    /// The suffix half areas right to left into `areas[1..n]` (as `suffix_pass` with `f32`
-    /// suffixes); returns the bounds of all `n >= 1` items.
-    #[inline(always)]
-    fn suffix_areas<'b>(n: usize, item: impl Fn(usize) -> &'b Aabb, areas: &mut [f32]) -> Aabb {
-        let areas = &mut areas[..n];
-        let mut acc = Aabb::EMPTY;
-        let mut j = n;
-        // Blocks of positions `j - 4 .. j`, all at least 1.
-        while j >= 5 {
-            if j >= 4 + PREFETCH {
-                for k in 0..4 {
-                    prefetch(item(j - 4 - PREFETCH + k));
-                }
-            }
-            let mut e = [Vec3A::ZERO.into(); 4];
-            for k in (0..4).rev() {
-                acc.grow_aabb(item(j - 4 + k));
-                e[k] = extent(&acc);
-            }
-            // SAFETY: `j - 4 + 4 <= n`, so the four floats are in bounds.
-            unsafe { _mm_storeu_ps(areas.as_mut_ptr().add(j - 4), half_areas4(e)) };
-            j -= 4;
-        }
-        for i in (1..j).rev() {
-            acc.grow_aabb(item(i));
-            areas[i] = acc.half_area();
-        }
-        acc.grow_aabb(item(0));
-        acc
-    }
-
-    #[inline]
-    pub(super) fn best_on_axis(
-        bounds: &[Aabb],
-        order: &[u32],
-        axis: usize,
-        areas: &mut [f32],
-        cost: &CostModel,
-        best: &mut SplitCandidate,
-        s0: &mut f64,
-    ) -> Aabb {
-        let n = order.len();
-        assert!(n >= 1, "a sweep needs at least one primitive");
-        // SAFETY: every caller passes `j < n = order.len()`; the id itself stays checked.
-        let item = |j: usize| &bounds[*unsafe { order.get_unchecked(j) } as usize];
-        let node = suffix_areas(n, item, areas);
-        let rater = PositionRater::new(axis, n, &node, cost);
-        let total = n as f64;
-        let areas = &areas[..n];
-        // `n_left` is `j` exactly, as the scalar sweep's running count.
-        let rate = |j: usize, left_area: f64, right_area: f64, best: &mut _, s0: &mut _| {
-            rater.rate(j, j as f64, left_area, right_area, best, s0)
-        };
-        let mut left = Aabb::EMPTY;
-        let mut j = 1;
-        // Blocks of positions `j .. j + 4`, all below `n`.
-        while j + 4 <= n {
-            if j + 3 + PREFETCH + 4 <= n {
-                for k in 0..4 {
-                    prefetch(item(j - 1 + PREFETCH + k));
-                }
-            }
-            let mut e = [Vec3A::ZERO.into(); 4];
-            for (k, ek) in e.iter_mut().enumerate() {
-                left.grow_aabb(item(j - 1 + k));
-                *ek = extent(&left);
-            }
-            let la = half_areas4(e);
-            // SAFETY: SSE2 is part of x86-64; `areas[j..j + 4]` is in bounds.
-            let (la, ra, score) = unsafe {
-                let ra = _mm_loadu_ps(areas.as_ptr().add(j));
-                let la = [_mm_cvtps_pd(la), _mm_cvtps_pd(_mm_movehl_ps(la, la))];
-                let ra = [_mm_cvtps_pd(ra), _mm_cvtps_pd(_mm_movehl_ps(ra, ra))];
-                let jf = j as f64;
-                let nl = [_mm_set_pd(jf + 1.0, jf), _mm_set_pd(jf + 3.0, jf + 2.0)];
-                let tot = _mm_set1_pd(total);
-                let score = [0, 1].map(|h| {
-                    let nr = _mm_sub_pd(tot, nl[h]);
-                    _mm_add_pd(_mm_mul_pd(la[h], nl[h]), _mm_mul_pd(ra[h], nr))
-                });
-                (la, ra, score)
-            };
-            // SAFETY: as above.
-            let pruned = unsafe {
-                let b = _mm_set1_pd(*s0);
-                (_mm_movemask_pd(_mm_cmpge_pd(score[0], b))
-                    | _mm_movemask_pd(_mm_cmpge_pd(score[1], b)) << 2) as u32
-            };
-            if pruned != 0b1111 {
-                // Lanes whose score is already `>= s0` stay pruned: `s0` only falls.
-                let mut lf = [0.0f64; 4];
-                let mut rf = [0.0f64; 4];
-                // SAFETY: the arrays hold four doubles.
-                unsafe {
-                    _mm_storeu_pd(lf.as_mut_ptr(), la[0]);
-                    _mm_storeu_pd(lf.as_mut_ptr().add(2), la[1]);
-                    _mm_storeu_pd(rf.as_mut_ptr(), ra[0]);
-                    _mm_storeu_pd(rf.as_mut_ptr().add(2), ra[1]);
-                }
-                for k in 0..4 {
-                    if pruned & (1 << k) == 0 {
-                        rate(j + k, lf[k], rf[k], best, s0);
-                    }
-                }
-            }
-            j += 4;
-        }
-        while j < n {
-            left.grow_aabb(item(j - 1));
-            rate(j, left.half_area() as f64, areas[j] as f64, best, s0);
-            j += 1;
-        }
-        node
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::split::orders::sorted_orders;
     use sahara_geom::rng::Pcg32;
+    use sahara_geom::Vec3A;
 
     /// A candidate as bits (exact comparison, NaN included).
     fn cand_bits(c: &SplitCandidate) -> (usize, usize, u64, u64, u64) {
@@ -1028,91 +709,6 @@ mod tests {
                 &cost,
             );
             assert_eq!(pruned, full, "case {case}, n = {n}");
-        }
-    }
-
-    /// The in-place stable partition equals a plain filter of each order.
-    #[test]
-    fn padded_split_equals_split_orders() {
-        let mut rng = Pcg32::new(13, 4);
-        for case in 0..200 {
-            let n = 2 + (rng.next_u32() % 300) as usize;
-            let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
-            for o in base.iter_mut() {
-                for i in (1..n).rev() {
-                    o.swap(i, rng.next_u32() as usize % (i + 1));
-                }
-            }
-            let axis = case % 3;
-            let pos = 1 + rng.next_u32() as usize % (n - 1);
-            let orders = [&base[0][..], &base[1][..], &base[2][..]];
-            let marks = Marks::new(n);
-            let mut want_l = vec![vec![0u32; pos]; 3];
-            let mut want_r = vec![vec![0u32; n - pos]; 3];
-            {
-                let [a, b, c] = &mut want_l[..] else {
-                    unreachable!()
-                };
-                let [d, e, f] = &mut want_r[..] else {
-                    unreachable!()
-                };
-                split_orders(orders, axis, pos, &marks, [a, b, c], [d, e, f]);
-            }
-            let mut got_l = vec![vec![0u32; pos + 1]; 3];
-            let mut got_r = vec![vec![0u32; n - pos + 1]; 3];
-            {
-                let [a, b, c] = &mut got_l[..] else {
-                    unreachable!()
-                };
-                let [d, e, f] = &mut got_r[..] else {
-                    unreachable!()
-                };
-                split_orders_padded(orders, axis, pos, &marks, [a, b, c], [d, e, f]);
-            }
-            for k in 0..3 {
-                assert_eq!(got_l[k][..pos], want_l[k][..], "case {case}, left {k}");
-                assert_eq!(got_r[k][..n - pos], want_r[k][..], "case {case}, right {k}");
-            }
-            assert!((0..n as u32).all(|id| !marks.get(id)), "marks left set");
-        }
-    }
-
-    #[test]
-    fn partition_in_place_is_a_stable_partition() {
-        let mut rng = Pcg32::new(11, 2);
-        for case in 0..200 {
-            let n = if case == 0 {
-                PAR_AXES_THRESHOLD + 7
-            } else {
-                2 + (rng.next_u32() % 300) as usize
-            };
-            let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
-            for o in base.iter_mut() {
-                for i in (1..n).rev() {
-                    o.swap(i, rng.next_u32() as usize % (i + 1));
-                }
-            }
-            let axis = case % 3;
-            let pos = 1 + rng.next_u32() as usize % (n - 1);
-            let left: Vec<u32> = base[axis][..pos].to_vec();
-            let want: Vec<Vec<u32>> = base
-                .iter()
-                .map(|o| {
-                    let (mut l, r): (Vec<u32>, Vec<u32>) =
-                        o.iter().partition(|id| left.contains(id));
-                    l.extend(r);
-                    l
-                })
-                .collect();
-            let marks = Marks::new(n);
-            let mut tmp = vec![0u32; n];
-            let [a, b, c] = &mut base[..] else {
-                unreachable!()
-            };
-            let mut orders: [&mut [u32]; 3] = [a, b, c];
-            partition_in_place(&mut orders, axis, pos, &marks, &mut tmp);
-            assert_eq!(base, want, "case {case}, n = {n}, axis {axis}, pos {pos}");
-            assert!((0..n as u32).all(|id| !marks.get(id)), "marks left set");
         }
     }
 }
