@@ -48,10 +48,9 @@ use sahara_metrics::CostModel;
 
 use crate::cost_only::MemoView;
 use crate::rules::greedy::{sweep_cost_memo, SweepScratch};
+use crate::rules::rated::{self, offer_top_k, Candidates, LocalNode, RatedParams, Rater};
 use crate::split::orders::{split_orders, Marks};
 use crate::split::sweep::{sweep_axis, SplitCandidate};
-use crate::tsah::engine::{self, offer_top_k, EngineParams, LocalNode, Rater};
-use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput, Configured, Strategy};
 
 /// How the frontier nodes of the look-ahead are costed.
@@ -151,7 +150,7 @@ impl Strategy for PopovConfig {
 
     fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
         let c = self;
-        let params = EngineParams {
+        let params = RatedParams {
             candidates: Candidates::TopK {
                 k: c.k,
                 per_axis: c.per_axis,
@@ -168,7 +167,7 @@ impl Strategy for PopovConfig {
             frontier: c.frontier,
             max_leaf: c.max_leaf_size,
         };
-        engine::build(input, &params, &rater)
+        rated::build(input, &params, &rater)
     }
 }
 

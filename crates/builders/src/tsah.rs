@@ -46,49 +46,18 @@
 //! ```
 
 mod binned_cost;
-pub(crate) mod engine;
 mod median_cost;
 
 use sahara_bvh::Bvh;
 
 use crate::cost_only::{RootSplit, SubtreeCost, TopLevels};
 use crate::rules::greedy::{sweep_cost_memo, SweepScratch};
+pub use crate::rules::rated::Candidates;
+use crate::rules::rated::{self, LocalNode, RatedParams, Rater};
 use crate::split::orders::{split_orders_padded, Marks};
 use crate::split::sweep::SplitCandidate;
 use crate::{BuildError, BuildInput, Configured, Strategy};
 use binned_cost::{binned_cost, BinnedScratch};
-use engine::{EngineParams, LocalNode, Rater};
-
-/// Which candidate splits of a node are rated with temporary subtrees.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Candidates {
-    /// Every one of the `3 (n - 1)` sweep positions: `O(n² log n)` per node, a reference for
-    /// small inputs and tests.
-    Exhaustive,
-    /// The `k` best sweep positions by Eq. 2 (same tie-break as the sweep builder), over all
-    /// three axes together or, with `per_axis`, `k` on each axis (`3k` in all).
-    TopK {
-        /// Number of candidates (per axis with `per_axis`), at least 1.
-        k: usize,
-        /// Select `k` per axis instead of `k` overall.
-        per_axis: bool,
-    },
-    /// The split positions of `bins_per_axis` equal-width bins over the node's centroid
-    /// extent on each axis (at most `bins_per_axis - 1` planes per axis; planes that separate
-    /// nothing, or the same primitives as the previous plane, are skipped).
-    Binned {
-        /// Number of bins per axis, at least 2.
-        bins_per_axis: usize,
-    },
-    /// [`Candidates::Exhaustive`] at nodes of at most `up_to` primitives, the `k` best per
-    /// axis by Eq. 2 above (a study setting: is the top-k selection what loses the gain?).
-    ExhaustiveBelow {
-        /// Largest node rated exhaustively.
-        up_to: usize,
-        /// Candidates per axis at larger nodes, at least 1.
-        k: usize,
-    },
-}
 
 /// How the temporary subtrees that rate a candidate are built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -221,7 +190,7 @@ impl Strategy for TsahConfig {
     }
 
     fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
-        let params = EngineParams {
+        let params = RatedParams {
             candidates: self.candidates,
             include_greedy: self.always_include_greedy_best,
             greedy_below: self.greedy_below,
@@ -232,7 +201,7 @@ impl Strategy for TsahConfig {
             max_leaf: self.max_leaf_size,
             temporary: self.temporary,
         };
-        engine::build(input, &params, &rater)
+        rated::build(input, &params, &rater)
     }
 }
 
@@ -244,7 +213,7 @@ pub type TsahBuilder = Configured<TsahConfig>;
 const JOIN_SIDES: usize = 4096;
 
 /// Rates candidates with temporary subtrees.
-pub(crate) struct TemporaryRater {
+struct TemporaryRater {
     pub cost: sahara_metrics::CostModel,
     pub max_leaf: usize,
     pub temporary: Temporary,
@@ -252,7 +221,7 @@ pub(crate) struct TemporaryRater {
 
 /// Reusable buffers of [`TemporaryRater`].
 #[derive(Default)]
-pub(crate) struct TempScratch {
+struct TempScratch {
     marks: Marks,
     left: [Vec<u32>; 3],
     right: [Vec<u32>; 3],
@@ -338,7 +307,7 @@ impl TemporaryRater {
 }
 
 /// The costs of sweep temporaries over both sides of a candidate of a local node.
-pub(crate) fn sweep_sides(
+fn sweep_sides(
     node: &LocalNode,
     c: &SplitCandidate,
     cost: &sahara_metrics::CostModel,

@@ -34,7 +34,7 @@ pub(crate) struct BoxTask<'a> {
 }
 
 /// The rule: `min(K, n)` bins, Eq. 2 at the planes, the sweep builder's leaf rule.
-struct BinnedRule<'a> {
+struct BinnedTemporary<'a> {
     bins: usize,
     cost: CostModel,
     max_leaf: usize,
@@ -76,7 +76,7 @@ pub(crate) fn binned_cost(
     if prims.is_empty() {
         return SubtreeCost::ZERO;
     }
-    let rule = BinnedRule {
+    let rule = BinnedTemporary {
         bins: bins.max(2),
         cost: *cost,
         max_leaf: max_leaf.max(1),
@@ -91,7 +91,7 @@ pub(crate) fn binned_cost(
     cost_only::cost(&rule, task, cost, scratch)
 }
 
-impl<'a> Rule for BinnedRule<'a> {
+impl<'a> Rule for BinnedTemporary<'a> {
     type Task = BoxTask<'a>;
     type Scratch = BinnedScratch;
 
@@ -161,7 +161,7 @@ impl<'a> Rule for BinnedRule<'a> {
     }
 }
 
-impl BinnedRule<'_> {
+impl BinnedTemporary<'_> {
     /// Bins the node on every axis with a map and returns its cheapest plane and the bounds
     /// of that plane's right side (`None` when no plane separates anything). The bins keep no
     /// centroid bounds: the partition pass computes the children's.

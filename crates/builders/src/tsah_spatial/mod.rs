@@ -3,7 +3,7 @@
 //! splits").
 //!
 //! At every node with at least [`TsahSpatialConfig::min_size`] references the builder collects
-//! candidate splits with the SBVH machinery of [`crate::sbvh`]:
+//! candidate splits with the SBVH machinery of [`crate::rules::sbvh`]:
 //!
 //! * up to [`TsahSpatialConfig::object_candidates`] object splits: the best by Eq. 2 over all
 //!   axes, then the next best that are not within
@@ -86,7 +86,7 @@
 
 mod rule;
 
-use crate::sbvh::{initial_refs, Ctx as SbvhCtx, SbvhConfig, SbvhTask};
+use crate::rules::sbvh::{initial_refs, Ctx as SbvhCtx, SbvhConfig, SbvhTask};
 use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use rule::SpatialRated;

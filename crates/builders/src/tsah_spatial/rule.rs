@@ -6,7 +6,7 @@ use sahara_geom::Aabb;
 
 use super::{TemporarySearch, TsahSpatialConfig};
 use crate::cost_only;
-use crate::sbvh::{decide, decide_with, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask};
+use crate::rules::sbvh::{decide, decide_with, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask};
 use crate::split::half_area;
 use crate::split::object::{
     apply_object, refs_bounds, ObjectCand, ObjectScratch, ObjectSearch, Ref,

@@ -1,9 +1,9 @@
-//! The top-down rule shared by the temporary-subtree builders ([`crate::tsah`]) and the
-//! look-ahead builders ([`crate::popov`]), as a [`Rule`]: at every node, sweep the
-//! three sorted orders (Eq. 2 at every position), select candidate splits, rate each with a
-//! [`Rater`] (in parallel for large nodes), take the cheapest (deterministic tie-break), decide
-//! leaf or split. Nodes at or below `greedy_below` primitives are split by the plain sweep rule
-//! ([`Greedy`]).
+//! The rated rule, shared by the temporary-subtree builders ([`crate::tsah`]) and the
+//! look-ahead builders ([`crate::popov`]): at every node, sweep the three sorted orders (Eq. 2
+//! at every position), select candidate splits ([`Candidates`]), rate each with a [`Rater`]
+//! (in parallel for large nodes; the builders differ only in their raters), take the cheapest
+//! (deterministic tie-break), decide leaf or split. Nodes at or below `greedy_below`
+//! primitives are split by the plain sweep rule ([`Greedy`]).
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -17,9 +17,39 @@ use crate::split::orders::Marks;
 use crate::split::sweep::{sweep_axis, SplitCandidate};
 use crate::split::{offer, BinMap};
 use crate::topdown::{self, Rule, Step};
-use crate::tsah::Candidates;
 use crate::{BuildError, BuildInput};
 use std::sync::Arc;
+
+/// Which candidate splits of a node are rated with temporary subtrees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Candidates {
+    /// Every one of the `3 (n - 1)` sweep positions: `O(n² log n)` per node, a reference for
+    /// small inputs and tests.
+    Exhaustive,
+    /// The `k` best sweep positions by Eq. 2 (same tie-break as the sweep builder), over all
+    /// three axes together or, with `per_axis`, `k` on each axis (`3k` in all).
+    TopK {
+        /// Number of candidates (per axis with `per_axis`), at least 1.
+        k: usize,
+        /// Select `k` per axis instead of `k` overall.
+        per_axis: bool,
+    },
+    /// The split positions of `bins_per_axis` equal-width bins over the node's centroid
+    /// extent on each axis (at most `bins_per_axis - 1` planes per axis; planes that separate
+    /// nothing, or the same primitives as the previous plane, are skipped).
+    Binned {
+        /// Number of bins per axis, at least 2.
+        bins_per_axis: usize,
+    },
+    /// [`Candidates::Exhaustive`] at nodes of at most `up_to` primitives, the `k` best per
+    /// axis by Eq. 2 above (a study setting: is the top-k selection what loses the gain?).
+    ExhaustiveBelow {
+        /// Largest node rated exhaustively.
+        up_to: usize,
+        /// Candidates per axis at larger nodes, at least 1.
+        k: usize,
+    },
+}
 
 /// Rates a candidate split of a node (smaller is better). Implementations are called in
 /// parallel for the candidates of a node and must be deterministic.
@@ -82,7 +112,7 @@ const PAR_RATE: usize = 1024;
 
 /// How candidates are chosen and when to stop.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct EngineParams {
+pub(crate) struct RatedParams {
     pub candidates: Candidates,
     pub include_greedy: bool,
     pub greedy_below: usize,
@@ -133,7 +163,7 @@ impl LocalNode {
 struct Rated<'a, R: Rater> {
     greedy: Greedy<'a>,
     centroids: &'a [Vec3A],
-    params: EngineParams,
+    params: RatedParams,
     rater: &'a R,
     /// Global id -> local id of the node being rated (nodes rated concurrently are disjoint).
     local_of: Vec<AtomicU32>,
@@ -142,7 +172,7 @@ struct Rated<'a, R: Rater> {
 /// Builds the tree over a non-empty input.
 pub(crate) fn build<R: Rater>(
     input: &BuildInput,
-    params: &EngineParams,
+    params: &RatedParams,
     rater: &R,
 ) -> Result<Bvh, BuildError> {
     let marks = Marks::new(input.len());

@@ -1,11 +1,12 @@
-//! The SBVH rule as a [`Rule`], shared with the spatial temporary-subtree builder
-//! ([`crate::tsah_spatial`]), which rates its candidates with temporaries built by the same
-//! rule (or by [`decide_with`] and cheaper searches).
+//! The SBVH rule (Stich, Friedrich & Dietrich 2009), shared by the `sbvh` builder and the
+//! spatial temporary-subtree builder (`tsah_spatial`), which rates its candidates with
+//! temporaries built by the same rule (or by [`decide_with`] and cheaper searches): its
+//! configuration ([`SbvhConfig`]), a node's task ([`SbvhTask`]: references, depth,
+//! duplication budget), the decision at one node ([`decide`]) and the rule ([`SbvhRule`]).
 
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use super::{ObjectSplitMethod, SbvhConfig};
 use crate::split::half_area;
 use crate::split::object::{
     apply_object, bin_objects, median_split, refs_bounds, sweep_objects, ObjectCand, ObjectScratch,
@@ -15,7 +16,171 @@ use crate::split::spatial::{
     apply_spatial, child_budgets, refined_spatial_search, spatial_search, Clipper, SpatialCand,
 };
 use crate::topdown::{Rule, Step};
-use crate::BuildInput;
+use crate::{BuildError, BuildInput};
+
+/// How SBVH finds object splits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum ObjectSplitMethod {
+    /// Full sweep: at every node the references are sorted by centroid on each axis and all
+    /// `n - 1` positions are rated (Stich et al.'s original). `O(n log n)` per node.
+    Sweep,
+    /// Equal-width bins over the reference centroids (as in the `binned` builder); falls back to
+    /// the sweep where no plane separates the centroids. `O(n)` per node.
+    Binned {
+        /// Bins per axis (at least 2).
+        bins: usize,
+    },
+}
+
+/// Configuration of the SBVH builder.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SbvhConfig {
+    /// Equal-width bins per axis for the spatial split search. Default 128. Values below 2
+    /// disable spatial splits (the builder then is a plain sweep SAH builder).
+    pub spatial_bins: usize,
+    /// When at least 2 and below `spatial_bins`, the best spatial split is searched coarse
+    /// to fine ([`crate::split::spatial::refined_spatial_search`]): this many bins per axis
+    /// first, then bins of the resolution of `spatial_bins` around each axis's two best
+    /// coarse planes. About 2-2.5x faster builds for a SAH within about ±0.5% of the full
+    /// search (sometimes lower, sometimes higher: see `docs/builders-classic.md`). `0` (the
+    /// default) bins all `spatial_bins` at once (Stich et al.'s search).
+    #[serde(default)]
+    pub coarse_spatial_bins: usize,
+    /// Spatial splits are searched only where the two sides of the best object split overlap
+    /// by more than `alpha` times the surface area of the root. Default `1e-5`.
+    pub alpha: f32,
+    /// Spatial splits are searched only where that overlap is also at least this fraction of
+    /// the sum of the two sides' areas (the gate of Embree's spatial-split builder, which uses
+    /// 0.2): a test relative to the node rather than to the root, so that the many small nodes
+    /// whose sides barely touch are not binned. Default `0` (Stich et al.'s test alone).
+    #[serde(default)]
+    pub overlap_ratio: f32,
+    /// No spatial split is searched at this depth or deeper. Default 48.
+    pub max_spatial_depth: usize,
+    /// Extra references allowed, relative to the number of triangles: `1.0` allows up to
+    /// twice as many references as triangles. Default `1.0`.
+    pub duplication_budget: f32,
+    /// Largest leaf (at least 1): nodes with more references are always split. Default 8.
+    pub max_leaf_size: usize,
+    /// How object splits are found. Default [`ObjectSplitMethod::Sweep`].
+    pub object_split: ObjectSplitMethod,
+    /// Reference unsplitting when a spatial split is applied. Default `true`.
+    pub unsplitting: bool,
+    /// Nodes at this depth or deeper are split at the object median only (when they must be
+    /// split), bounding the depth on adversarial input. Default 96.
+    pub fallback_depth: usize,
+}
+
+impl Default for SbvhConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl SbvhConfig {
+    /// Stich et al.'s parameters: 128 spatial bins, `alpha = 1e-5`, full sweep object splits,
+    /// spatial splits down to depth 48, up to 2× references, leaves of at most 8.
+    pub const DEFAULT: SbvhConfig = SbvhConfig {
+        spatial_bins: 128,
+        coarse_spatial_bins: 0,
+        alpha: 1e-5,
+        overlap_ratio: 0.0,
+        max_spatial_depth: 48,
+        duplication_budget: 1.0,
+        max_leaf_size: 8,
+        object_split: ObjectSplitMethod::Sweep,
+        unsplitting: true,
+        fallback_depth: 96,
+    };
+    /// The default with the spatial splits searched coarse to fine: 16 bins per axis, refined
+    /// to the resolution of 128 around each axis's two best coarse planes (registered as
+    /// `sbvh-refined`).
+    pub const REFINED: SbvhConfig = SbvhConfig {
+        coarse_spatial_bins: 16,
+        ..Self::DEFAULT
+    };
+    /// A faster preset: object splits by 32 centroid bins, 32 spatial bins.
+    pub const FAST: SbvhConfig = SbvhConfig {
+        spatial_bins: 32,
+        object_split: ObjectSplitMethod::Binned { bins: 32 },
+        ..Self::DEFAULT
+    };
+
+    /// [`SbvhConfig::FAST`] with the overlap gate of Embree's spatial-split builder
+    /// (`overlap_ratio` 0.2), registered as `sbvh-fast`: about 2-3x faster builds than the
+    /// default for a SAH 0.5-4% higher on the shared scenes (`docs/builders-classic.md`,
+    /// "Faster SBVH").
+    pub const FAST_GATED: SbvhConfig = SbvhConfig {
+        overlap_ratio: 0.2,
+        ..Self::FAST
+    };
+
+    /// The number of extra references allowed for `n` triangles.
+    pub fn budget_for(&self, n: usize) -> usize {
+        let b = self.duplication_budget as f64 * n as f64;
+        if b >= usize::MAX as f64 {
+            usize::MAX
+        } else {
+            b as usize
+        }
+    }
+
+    /// Checks the ranges of the fields ([`BuildError::InvalidConfig`] names the field); the
+    /// `sbvh` builder's [`Strategy::check`](crate::Strategy::check).
+    pub fn check(&self) -> Result<(), BuildError> {
+        let bad = |m: &str| Err(BuildError::InvalidConfig(format!("sbvh: {m}")));
+        if self.max_leaf_size < 1 {
+            return bad("max_leaf_size must be at least 1");
+        }
+        if !(self.alpha.is_finite() && self.alpha >= 0.0) {
+            return bad("alpha must be finite and non-negative");
+        }
+        if !(self.overlap_ratio.is_finite() && self.overlap_ratio >= 0.0) {
+            return bad("overlap_ratio must be finite and non-negative");
+        }
+        if !(self.duplication_budget.is_finite() && self.duplication_budget >= 0.0) {
+            return bad("duplication_budget must be finite and non-negative");
+        }
+        if let ObjectSplitMethod::Binned { bins } = self.object_split {
+            if bins < 2 {
+                return bad("object split bins must be at least 2");
+            }
+        }
+        Ok(())
+    }
+
+    /// A one-line description, for listings and reports; the `sbvh` builder's
+    /// [`Strategy::describe`](crate::Strategy::describe).
+    pub fn describe(&self) -> String {
+        let c = self;
+        let object = match c.object_split {
+            ObjectSplitMethod::Sweep => "full-sweep object splits".to_string(),
+            ObjectSplitMethod::Binned { bins } => format!("{bins}-bin object splits"),
+        };
+        let spatial = if c.coarse_spatial_bins >= 2 && c.coarse_spatial_bins < c.spatial_bins {
+            format!(
+                "{} coarse spatial bins refined to {}",
+                c.coarse_spatial_bins, c.spatial_bins
+            )
+        } else {
+            format!("{} spatial bins", c.spatial_bins)
+        };
+        format!(
+            "SBVH (Stich et al. 2009): {object}, {spatial}, alpha {:e}{}, spatial depth < {}, \
+             budget {}x extra refs, unsplitting {}, leaves <= {}",
+            c.alpha,
+            if c.overlap_ratio > 0.0 {
+                format!(", overlap >= {} of the sides' areas", c.overlap_ratio)
+            } else {
+                String::new()
+            },
+            c.max_spatial_depth,
+            c.duplication_budget,
+            if c.unsplitting { "on" } else { "off" },
+            c.max_leaf_size
+        )
+    }
+}
 
 /// The references of all primitives (or of a subset) with their full boxes.
 pub(crate) fn initial_refs(input: &BuildInput, prims: Option<&[u32]>) -> Vec<Ref> {
