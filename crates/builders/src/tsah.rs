@@ -54,10 +54,11 @@ use crate::cost_only::{RootSplit, SubtreeCost, TopLevels};
 use crate::rules::greedy::{sweep_cost_memo, SweepScratch};
 pub use crate::rules::rated::Candidates;
 use crate::rules::rated::{self, LocalNode, RatedParams, Rater};
+use crate::split::binned::boxes::BoxScratch;
 use crate::split::orders::{split_orders_padded, Marks};
 use crate::split::sweep::SplitCandidate;
 use crate::{BuildError, BuildInput, Configured, Strategy};
-use binned_cost::{binned_cost, BinnedScratch};
+use binned_cost::binned_cost;
 
 /// How the temporary subtrees that rate a candidate are built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -226,7 +227,7 @@ struct TempScratch {
     left: [Vec<u32>; 3],
     right: [Vec<u32>; 3],
     sweep: SweepScratch,
-    binned: BinnedScratch,
+    binned: BoxScratch,
     boxes: Vec<sahara_geom::Aabb>,
 }
 
@@ -282,7 +283,7 @@ impl TemporaryRater {
             Temporary::Binned { bins } => {
                 let order = &node.orders[c.axis];
                 let side =
-                    |ids: &[u32], boxes: &mut Vec<sahara_geom::Aabb>, bs: &mut BinnedScratch| {
+                    |ids: &[u32], boxes: &mut Vec<sahara_geom::Aabb>, bs: &mut BoxScratch| {
                         boxes.clear();
                         boxes.extend(ids.iter().map(|&i| node.bounds[i as usize]));
                         binned_cost(boxes, bins, &self.cost, self.max_leaf, bs)
@@ -291,7 +292,7 @@ impl TemporaryRater {
                 if node.len() >= JOIN_SIDES {
                     rayon::join(
                         || side(lo, &mut sc.boxes, &mut sc.binned),
-                        || side(hi, &mut Vec::new(), &mut BinnedScratch::default()),
+                        || side(hi, &mut Vec::new(), &mut BoxScratch::default()),
                     )
                 } else {
                     (

@@ -1,6 +1,6 @@
 //! Tests of the binned SAH builder and its cost-only entry point.
 
-use sahara_builders::binned::{binned_cost_only, BinnedBuilder, BinnedConfig};
+use sahara_builders::binned::{BinnedBuilder, BinnedConfig};
 use sahara_builders::{registry, BuildInput, Builder, Bvh};
 use sahara_fixtures::soups::{self, clustered_centroid, sized_soup};
 use sahara_geom::{Triangle, Vec3A};
@@ -76,10 +76,6 @@ fn degenerate_inputs() {
         BinnedBuilder::default().build(&input).unwrap(),
         Bvh::empty()
     );
-    assert_eq!(
-        binned_cost_only(&input, &mut [], &BinnedConfig::default()),
-        0.0
-    );
 }
 
 #[test]
@@ -116,41 +112,6 @@ fn invalid_config_is_rejected() {
 }
 
 #[test]
-fn cost_only_equals_sah_of_tree() {
-    for cost in [CostModel::AILA, CostModel::UNIT] {
-        for (tris, config) in [
-            (soup(20_000, 21), BinnedConfig::DEFAULT),
-            (soup(3000, 22), BinnedConfig::FAST),
-            (clustered_centroid(3000), BinnedConfig::FINE),
-            (degenerate_mix(), BinnedConfig::DEFAULT),
-            (flat_scene(2000), BinnedConfig::DEFAULT),
-        ] {
-            let input = BuildInput::new(&tris, cost).unwrap();
-            let bvh = BinnedBuilder::new(config).build(&input).unwrap();
-            let mut prims: Vec<u32> = (0..tris.len() as u32).collect();
-            let c = binned_cost_only(&input, &mut prims, &config);
-            let s = sah(&bvh, &cost);
-            assert!((c - s).abs() <= 1e-9 * s, "cost-only {c} vs sah {s}");
-            // The cost-only pass leaves the primitives in the tree's leaf order.
-            assert_eq!(prims, bvh.prim_indices);
-        }
-    }
-}
-
-#[test]
-fn cost_only_on_a_subset() {
-    let tris = soup(4000, 31);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    let subset: Vec<Triangle> = tris.iter().step_by(3).copied().collect();
-    let sub_input = BuildInput::new(&subset, CostModel::default()).unwrap();
-    let bvh = BinnedBuilder::default().build(&sub_input).unwrap();
-    let mut prims: Vec<u32> = (0..tris.len() as u32).step_by(3).collect();
-    let c = binned_cost_only(&input, &mut prims, &BinnedConfig::default());
-    let s = sah(&bvh, &input.cost);
-    assert!((c - s).abs() <= 1e-9 * s, "{c} vs {s}");
-}
-
-#[test]
 fn deterministic_across_thread_counts() {
     let tris = soup(60_000, 41);
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
@@ -161,9 +122,7 @@ fn deterministic_across_thread_counts() {
             .unwrap()
             .install(|| {
                 let bvh = BinnedBuilder::default().build(&input).unwrap();
-                let mut prims: Vec<u32> = (0..tris.len() as u32).collect();
-                let c = binned_cost_only(&input, &mut prims, &BinnedConfig::default());
-                (bits(&bvh), c.to_bits())
+                bits(&bvh)
             })
     };
     let one = run(1);

@@ -11,20 +11,13 @@
 //! and its centroid bounds from its parent's partition pass, so a node costs one binning pass and
 //! one partition pass.
 
-use sahara_geom::{Aabb, Vec3A};
+use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
 use crate::cost_only::{self, SubtreeCost};
-use crate::split::binned::{self, Bin};
-use crate::split::{imbalance, ranks_before, BinMap, Suffix};
+use crate::split::binned::boxes::{best_box_plane, box_bounds, partition_boxes, BoxScratch};
+use crate::split::binned::maps;
 use crate::topdown::{Rule, Step};
-
-/// Reusable buffers of [`binned_cost`].
-#[derive(Debug, Default)]
-pub(crate) struct BinnedScratch {
-    bins: Vec<Bin>,
-    right: Vec<(f32, u32)>,
-}
 
 /// A node of the cost-only build: its boxes, their bounds and their centroids' bounds.
 pub(crate) struct BoxTask<'a> {
@@ -41,29 +34,6 @@ struct BinnedTemporary<'a> {
     boxes: std::marker::PhantomData<fn(&'a mut [Aabb])>,
 }
 
-/// The best plane found so far.
-#[derive(Clone, Copy)]
-struct Best {
-    cost: f64,
-    imbalance: usize,
-    axis: usize,
-    plane: usize,
-    left: Aabb,
-}
-
-impl Best {
-    /// Lower cost, then more balanced, then lower axis, then lower plane.
-    #[inline]
-    fn better_than(&self, o: &Best) -> bool {
-        ranks_before(
-            self.cost,
-            || (self.imbalance, self.axis, self.plane),
-            o.cost,
-            || (o.imbalance, o.axis, o.plane),
-        )
-    }
-}
-
 /// `c(T)` of the binned SAH tree over the primitives whose boxes are `prims` (permuted in
 /// place), relative to its bounds.
 pub(crate) fn binned_cost(
@@ -71,7 +41,7 @@ pub(crate) fn binned_cost(
     bins: usize,
     cost: &CostModel,
     max_leaf: usize,
-    scratch: &mut BinnedScratch,
+    scratch: &mut BoxScratch,
 ) -> SubtreeCost {
     if prims.is_empty() {
         return SubtreeCost::ZERO;
@@ -82,7 +52,7 @@ pub(crate) fn binned_cost(
         max_leaf: max_leaf.max(1),
         boxes: std::marker::PhantomData,
     };
-    let (bounds, centroids) = bounds_of(prims);
+    let (bounds, centroids) = box_bounds(prims);
     let task = BoxTask {
         seg: prims,
         bounds,
@@ -93,13 +63,13 @@ pub(crate) fn binned_cost(
 
 impl<'a> Rule for BinnedTemporary<'a> {
     type Task = BoxTask<'a>;
-    type Scratch = BinnedScratch;
+    type Scratch = BoxScratch;
 
     fn size(&self, t: &BoxTask<'a>) -> usize {
         t.seg.len()
     }
 
-    fn split(&self, t: BoxTask<'a>, scratch: &mut BinnedScratch) -> Step<BoxTask<'a>> {
+    fn split(&self, t: BoxTask<'a>, scratch: &mut BoxScratch) -> Step<BoxTask<'a>> {
         let m = t.seg.len();
         let area = t.bounds.half_area() as f64;
         if m == 1 {
@@ -109,11 +79,11 @@ impl<'a> Rule for BinnedTemporary<'a> {
             };
         }
         let k = self.bins.min(m);
-        let maps = binned::maps(&t.centroids, k);
+        let maps = maps(&t.centroids, k);
         let best = if maps.iter().all(Option::is_none) {
             None
         } else {
-            self.best_plane(t.seg, &maps, k, area, scratch)
+            best_box_plane(t.seg, &maps, k, area, &self.cost, scratch)
         };
         let cost = &self.cost;
         let leaf_ok =
@@ -128,14 +98,14 @@ impl<'a> Rule for BinnedTemporary<'a> {
         let (mid, lb, lc, rb, rc) = match best {
             Some((b, right)) => {
                 let map = maps[b.axis].expect("binned axis");
-                let (mid, lc, rc) = partition(seg, |c| map.bin(c[b.axis]) < b.plane);
+                let (mid, lc, rc) = partition_boxes(seg, |c| map.bin(c[b.axis]) < b.plane);
                 (mid, b.left, lc, right, rc)
             }
             None => {
                 // Every centroid coincides: split the list in half.
                 let mid = m / 2;
-                let (lb, lc) = bounds_of(&seg[..mid]);
-                let (rb, rc) = bounds_of(&seg[mid..]);
+                let (lb, lc) = box_bounds(&seg[..mid]);
+                let (rb, rc) = box_bounds(&seg[mid..]);
                 (mid, lb, lc, rb, rc)
             }
         };
@@ -161,89 +131,13 @@ impl<'a> Rule for BinnedTemporary<'a> {
     }
 }
 
-impl BinnedTemporary<'_> {
-    /// Bins the node on every axis with a map and returns its cheapest plane and the bounds
-    /// of that plane's right side (`None` when no plane separates anything). The bins keep no
-    /// centroid bounds: the partition pass computes the children's.
-    fn best_plane(
-        &self,
-        seg: &[Aabb],
-        maps: &[Option<BinMap>; 3],
-        k: usize,
-        area: f64,
-        s: &mut BinnedScratch,
-    ) -> Option<(Best, Aabb)> {
-        s.bins.resize(3 * k, Bin::EMPTY);
-        s.right.resize(k, (0.0, 0));
-        binned::fill::<false>(&mut s.bins, k, maps, seg.iter().map(|b| (b, b.centroid())));
-        let mut best: Option<Best> = None;
-        for (a, map) in maps.iter().enumerate() {
-            if map.is_none() {
-                continue;
-            }
-            let bins = &s.bins[a * k..(a + 1) * k];
-            binned::sweep_planes(bins, &mut s.right, |j, left, nl, right: &f32, nr| {
-                let c = self
-                    .cost
-                    .split_cost(area, left.half_area() as f64, nl, right.area(), nr);
-                let cand = Best {
-                    cost: c,
-                    imbalance: imbalance(nl, nr),
-                    axis: a,
-                    plane: j,
-                    left: *left,
-                };
-                if best.as_ref().is_none_or(|b| cand.better_than(b)) {
-                    best = Some(cand);
-                }
-            });
-        }
-        // The right box of the winner (only its area was kept during the sweep).
-        best.map(|b| {
-            let bins = &s.bins[b.axis * k..(b.axis + 1) * k];
-            (b, binned::sides(bins, b.plane).1.bounds)
-        })
-    }
-}
-
-/// Bounds and centroid bounds of some boxes.
-fn bounds_of(prims: &[Aabb]) -> (Aabb, Aabb) {
-    let mut b = Aabb::EMPTY;
-    let mut c = Aabb::EMPTY;
-    for p in prims {
-        b.grow_aabb(p);
-        c.grow(p.centroid());
-    }
-    (b, c)
-}
-
-/// In-place partition by a predicate on the centroid; returns the number of boxes on the left
-/// and the centroid bounds of both sides.
-fn partition(seg: &mut [Aabb], left: impl Fn(Vec3A) -> bool) -> (usize, Aabb, Aabb) {
-    let mut lc = Aabb::EMPTY;
-    let mut rc = Aabb::EMPTY;
-    let mut i = 0;
-    let mut j = seg.len();
-    while i < j {
-        let c = seg[i].centroid();
-        if left(c) {
-            lc.grow(c);
-            i += 1;
-        } else {
-            rc.grow(c);
-            j -= 1;
-            seg.swap(i, j);
-        }
-    }
-    (i, lc, rc)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::rules::greedy::{sweep_cost, SweepScratch};
     use crate::split::orders::{sorted_orders, Marks};
     use sahara_geom::rng::Pcg32;
+    use sahara_geom::Vec3A;
 
     fn boxes(n: usize) -> Vec<Aabb> {
         let mut r = Pcg32::new(1, 1);
@@ -259,7 +153,7 @@ mod tests {
     fn cost_is_plausible_and_leafy_inputs_are_leaves() {
         let cost = CostModel::default();
         let b = boxes(3000);
-        let c = binned_cost(&mut b.clone(), 16, &cost, 8, &mut BinnedScratch::default());
+        let c = binned_cost(&mut b.clone(), 16, &cost, 8, &mut BoxScratch::default());
         // Not better than the full sweep by much, and far below one big leaf.
         let cents: Vec<Vec3A> = b.iter().map(Aabb::centroid).collect();
         let ids: Vec<u32> = (0..b.len() as u32).collect();
@@ -281,22 +175,10 @@ mod tests {
         assert_eq!(c.area, s.area);
         // Identical boxes: no plane, leaf while allowed, halves above the limit.
         let same = vec![b[0]; 8];
-        let c = binned_cost(
-            &mut same.clone(),
-            16,
-            &cost,
-            8,
-            &mut BinnedScratch::default(),
-        );
+        let c = binned_cost(&mut same.clone(), 16, &cost, 8, &mut BoxScratch::default());
         assert_eq!(c.cost, 8.0);
         let same = vec![b[0]; 9];
-        let c = binned_cost(
-            &mut same.clone(),
-            16,
-            &cost,
-            8,
-            &mut BinnedScratch::default(),
-        );
+        let c = binned_cost(&mut same.clone(), 16, &cost, 8, &mut BoxScratch::default());
         assert_eq!(c.cost, cost.inner_cost(c.area, c.area, 4.0, c.area, 5.0));
     }
 
@@ -337,13 +219,7 @@ mod tests {
         let cost = CostModel::default();
         for bins in [4, 8, 16, 32] {
             let t = std::time::Instant::now();
-            let c = binned_cost(
-                &mut b.clone(),
-                bins,
-                &cost,
-                8,
-                &mut BinnedScratch::default(),
-            );
+            let c = binned_cost(&mut b.clone(), bins, &cost, 8, &mut BoxScratch::default());
             eprintln!("binned {bins}: {:?} cost {}", t.elapsed(), c.cost);
         }
         let cents: Vec<Vec3A> = b.iter().map(Aabb::centroid).collect();

@@ -31,7 +31,7 @@ use sahara_geom::{Axis, Triangle, Vec3A};
 
 use super::{count_span, BinMap, SlabClipper, SpatialBin};
 use crate::simd::BuildSimd;
-use crate::split::binned::{max_lane, min_lane};
+use crate::split::binned::refs::{max_lane, min_lane};
 use crate::split::object::Ref;
 
 /// The most lanes of any backend.

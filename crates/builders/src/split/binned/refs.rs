@@ -1,174 +1,13 @@
-//! Equal-width centroid bins (Wald 2007): the one bin fill and the one plane sweep that the
-//! binned builder, the binned temporaries of the paper's builder and SBVH's binned object
-//! search use.
-//!
-//! A node's items are counted into `K` bins per axis by the centroid of their box
-//! ([`fill`], or [`fill_par`] for large nodes); each bin keeps the count, the union of the
-//! boxes and the union of the centroids. [`sweep_planes`] then visits the `K - 1` planes of an
-//! axis with the geometry of both sides; planes with an empty side are skipped. Bins are exact
-//! (integer counts, min and max), so the result never depends on the order of the items or on
-//! chunking.
+//! The binned builder's references: [`PrimRef`] (a primitive's box corners as four-lane
+//! arrays, the id in the bits of a spare lane, partitioned in place), their bins over the three
+//! axes ([`RefBins`]: SSE2 on x86-64, a scalar twin elsewhere and for tests, bit for bit the
+//! same) and the bounds of a set of them ([`ref_bounds`]).
 
 use rayon::prelude::*;
 use sahara_geom::{Aabb, Vec3A};
 
-use super::{BinMap, Suffix, PAR_CHUNK, PAR_NODE_THRESHOLD};
-
-/// One bin: how many items it holds, the union of their boxes and of their centroids.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bin {
-    /// Union of the items' boxes.
-    pub bounds: Aabb,
-    /// Union of the items' centroids.
-    pub centroids: Aabb,
-    /// Number of items.
-    pub count: u32,
-}
-
-impl Bin {
-    /// A bin with nothing in it.
-    pub const EMPTY: Bin = Bin {
-        bounds: Aabb::EMPTY,
-        centroids: Aabb::EMPTY,
-        count: 0,
-    };
-
-    /// Adds an item.
-    #[inline]
-    pub fn add(&mut self, bounds: &Aabb, centroid: Vec3A) {
-        self.count += 1;
-        self.bounds.grow_aabb(bounds);
-        self.centroids.grow(centroid);
-    }
-
-    /// Adds the content of another bin.
-    #[inline]
-    pub fn merge(&mut self, other: &Bin) {
-        self.bounds.grow_aabb(&other.bounds);
-        self.centroids.grow_aabb(&other.centroids);
-        self.count += other.count;
-    }
-}
-
-/// The bin maps of a node's three axes over its centroid bounds (`None` for a flat axis).
-#[inline]
-pub fn maps(centroids: &Aabb, bins: usize) -> [Option<BinMap>; 3] {
-    std::array::from_fn(|a| BinMap::new(centroids.min[a], centroids.max[a], bins))
-}
-
-/// Fills `bins` (`3 × k`: axis-major) with the items `(box, centroid)`, on the axes that have
-/// a map (the others are left empty). With `CENTROIDS == false` the bins' centroid bounds are
-/// left empty (a third of the work of a fill, for callers that do not need them).
-#[inline]
-pub fn fill<'a, const CENTROIDS: bool>(
-    bins: &mut [Bin],
-    k: usize,
-    maps: &[Option<BinMap>; 3],
-    items: impl IntoIterator<Item = (&'a Aabb, Vec3A)>,
-) {
-    let bins = &mut bins[..3 * k];
-    bins.fill(Bin::EMPTY);
-    // The three bin indices at once: clamping in floating point before truncating gives
-    // exactly `BinMap::bin` (the operand of a mapped axis is never negative).
-    let lo = Vec3A::from_array(std::array::from_fn(|a| maps[a].map_or(0.0, |m| m.min)));
-    let scale = Vec3A::from_array(std::array::from_fn(|a| maps[a].map_or(0.0, |m| m.scale)));
-    let top = Vec3A::splat((k - 1) as f32);
-    let on = maps.map(|m| m.is_some());
-    for (b, c) in items {
-        let v = ((c - lo) * scale).min(top);
-        let [bx, by, bz] = v.to_array();
-        for (on, i) in on
-            .into_iter()
-            .zip([bx as usize, k + by as usize, 2 * k + bz as usize])
-        {
-            if on {
-                let bin = &mut bins[i];
-                bin.count += 1;
-                bin.bounds.grow_aabb(b);
-                if CENTROIDS {
-                    bin.centroids.grow(c);
-                }
-            }
-        }
-    }
-}
-
-/// [`fill`] over primitive ids, in parallel chunks of [`PAR_CHUNK`] for nodes of at least
-/// [`PAR_NODE_THRESHOLD`] primitives (exact, so the chunking changes nothing).
-pub fn fill_par(
-    bins: &mut [Bin],
-    k: usize,
-    maps: &[Option<BinMap>; 3],
-    ids: &[u32],
-    bounds: &[Aabb],
-    centroids: &[Vec3A],
-) {
-    let item = |&p: &u32| (&bounds[p as usize], centroids[p as usize]);
-    if ids.len() < PAR_NODE_THRESHOLD {
-        fill::<true>(bins, k, maps, ids.iter().map(item));
-        return;
-    }
-    let merged = ids
-        .par_chunks(PAR_CHUNK)
-        .map(|chunk| {
-            let mut local = vec![Bin::EMPTY; 3 * k];
-            fill::<true>(&mut local, k, maps, chunk.iter().map(item));
-            local
-        })
-        .reduce(
-            || vec![Bin::EMPTY; 3 * k],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().zip(&b) {
-                    x.merge(y);
-                }
-                a
-            },
-        );
-    bins[..3 * k].copy_from_slice(&merged);
-}
-
-/// Visits the planes `1..k` of one axis's `k` bins: the suffix (right side) right to left into
-/// `right[1..k]`, then `visit(plane, left_bounds, n_left, right, n_right)` left to right for
-/// every plane with items on both sides.
-#[inline]
-pub fn sweep_planes<S: Suffix>(
-    bins: &[Bin],
-    right: &mut [(S, u32)],
-    mut visit: impl FnMut(usize, &Aabb, usize, &S, usize),
-) {
-    let k = bins.len();
-    let mut acc = Aabb::EMPTY;
-    let mut rc = 0u32;
-    for i in (1..k).rev() {
-        acc.grow_aabb(&bins[i].bounds);
-        rc += bins[i].count;
-        right[i] = (S::of(&acc), rc);
-    }
-    let mut lb = Aabb::EMPTY;
-    let mut lc = 0u32;
-    for i in 1..k {
-        lb.grow_aabb(&bins[i - 1].bounds);
-        lc += bins[i - 1].count;
-        let (r, rc) = &right[i];
-        if lc == 0 || *rc == 0 {
-            continue;
-        }
-        visit(i, &lb, lc as usize, r, *rc as usize);
-    }
-}
-
-/// The merged content of the bins below `plane` and of the others.
-pub fn sides(bins: &[Bin], plane: usize) -> (Bin, Bin) {
-    let mut left = Bin::EMPTY;
-    let mut right = Bin::EMPTY;
-    for b in &bins[..plane] {
-        left.merge(b);
-    }
-    for b in &bins[plane..] {
-        right.merge(b);
-    }
-    (left, right)
-}
+use super::Bin;
+use crate::split::{BinMap, PAR_CHUNK, PAR_NODE_THRESHOLD};
 
 /// A primitive reference of the binned builder: the corners of the primitive's box as
 /// four-lane arrays, 32 bytes aligned for 128-bit loads, with the primitive id in the bits of
@@ -252,7 +91,7 @@ pub struct RefBins {
 
 /// `min` of two lanes as SSE's `minps` computes it (`a` only when `a < b`).
 #[inline(always)]
-pub(crate) fn min_lane(a: f32, b: f32) -> f32 {
+pub(in crate::split) fn min_lane(a: f32, b: f32) -> f32 {
     if a < b {
         a
     } else {
@@ -262,7 +101,7 @@ pub(crate) fn min_lane(a: f32, b: f32) -> f32 {
 
 /// `max` of two lanes as SSE's `maxps` computes it (`a` only when `a > b`).
 #[inline(always)]
-pub(crate) fn max_lane(a: f32, b: f32) -> f32 {
+pub(in crate::split) fn max_lane(a: f32, b: f32) -> f32 {
     if a > b {
         a
     } else {
@@ -471,7 +310,7 @@ impl RefBins {
     ) {
         #[cfg(target_arch = "x86_64")]
         {
-            use super::sweep::batched::half_areas4;
+            use crate::split::sweep::batched::half_areas4;
             use std::arch::x86_64::*;
             let k = self.k;
             if right.len() < k {
@@ -688,8 +527,42 @@ impl RefBins {
     }
 }
 
+/// The bounds of a set of primitives and of their centroids.
+#[derive(Clone, Copy, Debug)]
+pub struct RefBounds {
+    /// Union of the primitives' boxes.
+    pub bounds: Aabb,
+    /// Bounds of their centroids.
+    pub centroids: Aabb,
+}
+
+/// Bounds of the references and of their centroids (computed at the root and for median
+/// splits; other children get their bounds from the bins and their centroid bounds from the
+/// partition).
+pub fn ref_bounds(refs: &[PrimRef]) -> RefBounds {
+    let fold = |refs: &[PrimRef]| {
+        let mut b = Aabb::EMPTY;
+        let mut c = Aabb::EMPTY;
+        for r in refs {
+            b.grow_aabb(&r.bounds());
+            c.grow(r.centroid());
+        }
+        (b, c)
+    };
+    let (bounds, centroids) = if refs.len() >= PAR_NODE_THRESHOLD {
+        refs.par_chunks(PAR_CHUNK).map(fold).reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+        )
+    } else {
+        fold(refs)
+    };
+    RefBounds { bounds, centroids }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::super::{maps, sides, sweep_planes};
     use super::*;
     use sahara_geom::rng::Pcg32;
 
