@@ -1,8 +1,26 @@
 //! BVH builders behind one trait.
 //!
-//! Every strategy is a module with a documented `Config` (with presets) and a type that
-//! implements [`Builder`]. The [`registry`] maps names to builders, so the xtask, the benches
-//! and the tests enumerate all of them: adding a builder is one module plus one registry line.
+//! Three names, three roles:
+//!
+//! * [`Builder`] is what callers use: an object (the [`registry`] hands out
+//!   `Box<dyn Builder>`) with a name, a description and [`Builder::build`];
+//! * [`Strategy`] is what a builder's configuration implements to become one: its default
+//!   registry name, the checks of its fields, its description and
+//!   [`build_tree`](Strategy::build_tree), the build proper over a non-empty input;
+//! * [`Configured<C>`](Configured) is the one adapter from the second to the first: a
+//!   configuration and a registry name; it checks the configuration and handles empty and
+//!   oversized inputs before calling `build_tree`. Every builder of this crate is a
+//!   `Configured<ItsConfig>` (for example [`sweep::SweepBuilder`] is
+//!   `Configured<SweepConfig>`).
+//!
+//! The modules are layered, each importing only the ones before it: [`split`] (the split
+//! search: candidate splits and partitions), [`topdown`] (the one driver: a [`topdown::Rule`]
+//! decides leaf or split for one node, the driver builds the tree), [`cost_only`] (the same
+//! rules costed without storing a node: temporary subtrees), [`rules`] (the rules several
+//! builders share), the builders, one module each, which never import one another
+//! ([`binned`], [`sweep`], [`sbvh`], [`tsah`], [`tsah_spatial`], [`popov`], [`ploc`],
+//! [`reinsert`]), and the [`registry`], the table of presets that the xtask, the benches and
+//! the tests enumerate. `docs/ARCHITECTURE.md` says what adding a builder takes.
 //!
 //! **Builders never see rays**: their only input is a [`BuildInput`] (triangles and a cost
 //! model), their only output a [`Bvh`].
@@ -48,7 +66,8 @@ pub use input::{BuildError, BuildInput};
 pub use sahara_bvh::Bvh;
 pub use sahara_metrics::CostModel;
 
-/// A BVH construction strategy.
+/// A BVH builder, as callers use it (see the [crate documentation](crate) for how it relates
+/// to [`Strategy`] and [`Configured`]).
 ///
 /// Implementations must be deterministic: the same input gives the same tree whatever the
 /// number of threads of the rayon pool they run in.
@@ -61,8 +80,8 @@ pub trait Builder: Send + Sync {
     fn build(&self, input: &BuildInput) -> Result<Bvh, BuildError>;
 }
 
-/// A builder's configuration, and the strategy it configures: what [`Configured`] needs to
-/// be a [`Builder`]. Every builder of this crate is a `Configured<ItsConfig>`.
+/// What a builder's configuration implements: what [`Configured`] needs to be a [`Builder`].
+/// Every builder of this crate is a `Configured<ItsConfig>`.
 pub trait Strategy: Clone + std::fmt::Debug + Send + Sync + 'static {
     /// The registry name of a builder made with [`Configured::new`].
     const NAME: &'static str;
@@ -74,7 +93,8 @@ pub trait Strategy: Clone + std::fmt::Debug + Send + Sync + 'static {
     fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError>;
 }
 
-/// A [`Builder`] made of a configuration and a registry name.
+/// A [`Builder`] made of a configuration (a [`Strategy`]) and a registry name: the one way a
+/// configuration becomes a builder.
 #[derive(Clone, Debug)]
 pub struct Configured<C> {
     /// The configuration.

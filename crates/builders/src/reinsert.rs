@@ -259,13 +259,37 @@ pub fn optimize_with_stats(
     cost: &CostModel,
     config: &ReinsertConfig,
 ) -> Result<(Bvh, ReinsertStats), ReinsertError> {
+    reinsert(bvh, &SurfaceArea, config, |b| sahara_metrics::sah(b, cost))
+}
+
+/// Reinsertion that lowers `Σ_inner weight(box(n))` instead of the SAH (see [`NodeWeight`];
+/// with [`SurfaceArea`] it makes the same moves as [`optimize`]). The result has the same
+/// leaves, and its objective (as the stats report it, summed over the inner nodes in
+/// depth-first order) is at most the input's: otherwise the input is returned.
+pub fn optimize_for<W: NodeWeight>(
+    bvh: &Bvh,
+    weight: &W,
+    config: &ReinsertConfig,
+) -> Result<(Bvh, ReinsertStats), ReinsertError> {
+    reinsert(bvh, weight, config, |b| objective(b, weight))
+}
+
+/// The one reinsertion driver: moves chosen by `weight`, the result kept only when `measure`
+/// (the SAH, or the weight's objective) is not higher than the input's, which the stats
+/// report before and after.
+fn reinsert<W: NodeWeight>(
+    bvh: &Bvh,
+    weight: &W,
+    config: &ReinsertConfig,
+    measure: impl Fn(&Bvh) -> f64,
+) -> Result<(Bvh, ReinsertStats), ReinsertError> {
     config.check()?;
     if bvh.nodes.is_empty() {
         return Ok((bvh.clone(), ReinsertStats::default()));
     }
     // The structure is checked before anything walks the tree.
-    let mut tree = Tree::from_bvh(bvh, &SurfaceArea)?;
-    let before = sahara_metrics::sah(bvh, cost);
+    let mut tree = Tree::from_bvh(bvh, weight)?;
+    let before = measure(bvh);
     let unchanged = |stats: ReinsertStats| {
         (
             bvh.clone(),
@@ -281,53 +305,11 @@ pub fn optimize_with_stats(
         // Fewer than three leaves: no move changes anything.
         return Ok(unchanged(ReinsertStats::default()));
     }
-    let mut stats = tree.run(config, &SurfaceArea);
-    let out = tree.to_bvh(bvh);
-    let after = sahara_metrics::sah(&out, cost);
-    // `after <= before` unless float noise in the sums says otherwise: keep the input then.
-    // (Written negated so that a NaN SAH also keeps the input.)
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    let worse = !(after <= before);
-    if worse {
-        return Ok(unchanged(stats));
-    }
-    stats.sah_before = before;
-    stats.sah_after = after;
-    Ok((out, stats))
-}
-
-/// Reinsertion that lowers `Σ_inner weight(box(n))` instead of the SAH (see [`NodeWeight`];
-/// with [`SurfaceArea`] it makes the same moves as [`optimize`]). The result has the same
-/// leaves, and its objective (as the stats report it, summed over the inner nodes in
-/// depth-first order) is at most the input's: otherwise the input is returned.
-pub fn optimize_for<W: NodeWeight>(
-    bvh: &Bvh,
-    weight: &W,
-    config: &ReinsertConfig,
-) -> Result<(Bvh, ReinsertStats), ReinsertError> {
-    config.check()?;
-    if bvh.nodes.is_empty() {
-        return Ok((bvh.clone(), ReinsertStats::default()));
-    }
-    let mut tree = Tree::from_bvh(bvh, weight)?;
-    let before = objective(bvh, weight);
-    let unchanged = |stats: ReinsertStats| {
-        (
-            bvh.clone(),
-            ReinsertStats {
-                sah_before: before,
-                sah_after: before,
-                moves: 0,
-                ..stats
-            },
-        )
-    };
-    if bvh.nodes.len() < 5 {
-        return Ok(unchanged(ReinsertStats::default()));
-    }
     let mut stats = tree.run(config, weight);
     let out = tree.to_bvh(bvh);
-    let after = objective(&out, weight);
+    let after = measure(&out);
+    // `after <= before` unless float noise in the sums says otherwise: keep the input then.
+    // (Written negated so that a NaN measure also keeps the input.)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     let worse = !(after <= before);
     if worse {

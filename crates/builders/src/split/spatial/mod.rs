@@ -13,123 +13,28 @@
 //!
 //! Primitives are cut by a [`Clipper`]: triangles are clipped exactly, other primitives by a
 //! user's [`SplitPrimitive`].
-
-use std::ops::RangeInclusive;
+//!
+//! This file is the search (the binning and the plane sweep); `clip.rs` cuts primitives,
+//! `apply.rs` applies a split, `estimate.rs` is the estimate, and on x86-64 `simd.rs` bins
+//! triangles eight or sixteen slabs at a time with AVX2 or AVX-512, bit for bit the scalar
+//! binning.
 
 use rayon::prelude::*;
-use sahara_geom::clip::clipped_bounds;
-use sahara_geom::{Aabb, Axis, Triangle, Vec3A};
+use sahara_geom::{Aabb, Axis, Vec3A};
 use sahara_metrics::CostModel;
 
 use super::object::Ref;
 use super::{half_area, offer, ranks_before, BinMap, Suffix, PAR_AXES_THRESHOLD};
 
+mod apply;
+mod clip;
+mod estimate;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 
-/// A primitive that spatial splits can cut: the callback of [`crate::BuildInput::with_splitter`].
-pub trait SplitPrimitive: Sync {
-    /// Bounds of the parts of primitive `prim` inside the two halves of `bounds` (the box of
-    /// the reference being cut) below and above the plane `x[axis] = pos`. Each part must
-    /// contain all of the primitive that lies in its half of `bounds`, and lie inside that
-    /// half; a half the primitive does not reach is [`Aabb::EMPTY`].
-    fn split(&self, prim: u32, axis: Axis, pos: f32, bounds: &Aabb) -> (Aabb, Aabb);
-
-    /// Calls `f(bin, part)` for every bin of `bins` (`first..=last`, `first < last`) of `map`
-    /// that the reference spans, with the bounds of the part of the primitive in that bin
-    /// (used to rate spatial splits; an estimate is fine). The default cuts the reference at
-    /// each plane in turn with [`split`](Self::split).
-    fn bin(
-        &self,
-        prim: u32,
-        axis: Axis,
-        bounds: &Aabb,
-        map: &BinMap,
-        bins: RangeInclusive<usize>,
-        f: &mut dyn FnMut(usize, &Aabb),
-    ) {
-        let (first, last) = (*bins.start(), *bins.end());
-        let mut rest = *bounds;
-        for b in first..last {
-            let (l, r) = self.split(prim, axis, map.plane(b + 1), &rest);
-            if !l.is_empty() {
-                f(b, &l);
-            }
-            rest = r;
-            if rest.is_empty() {
-                return;
-            }
-        }
-        f(last, &rest);
-    }
-
-    /// Bounds of the parts of the primitive on each side of the plane, for a rating (an
-    /// estimate is fine). The default is [`split`](Self::split).
-    fn estimate(&self, prim: u32, axis: Axis, pos: f32, bounds: &Aabb) -> (Aabb, Aabb) {
-        self.split(prim, axis, pos, bounds)
-    }
-}
-
-/// How the builders cut primitives: triangles (by exact clipping, dispatched statically) or a
-/// user's [`SplitPrimitive`].
-#[derive(Clone, Copy)]
-pub enum Clipper<'a> {
-    /// Triangles, clipped.
-    Triangles(&'a [Triangle]),
-    /// Another kind of primitive.
-    Custom(&'a dyn SplitPrimitive),
-}
-
-impl std::fmt::Debug for Clipper<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Clipper::Triangles(t) => write!(f, "Clipper::Triangles({})", t.len()),
-            Clipper::Custom(_) => f.write_str("Clipper::Custom"),
-        }
-    }
-}
-
-impl Clipper<'_> {
-    /// See [`SplitPrimitive::split`]. Triangles are clipped exactly ([`clip_halves`]).
-    #[inline]
-    pub fn split(&self, prim: u32, axis: Axis, pos: f32, bounds: &Aabb) -> (Aabb, Aabb) {
-        match self {
-            Clipper::Triangles(t) => clip_halves(&t[prim as usize], axis, pos, bounds),
-            Clipper::Custom(c) => c.split(prim, axis, pos, bounds),
-        }
-    }
-
-    /// See [`SplitPrimitive::bin`]. Triangles are clipped into the slabs ([`SlabClipper`]).
-    #[inline]
-    pub fn bin(
-        &self,
-        prim: u32,
-        axis: Axis,
-        bounds: &Aabb,
-        map: &BinMap,
-        bins: RangeInclusive<usize>,
-        mut f: impl FnMut(usize, &Aabb),
-    ) {
-        match self {
-            Clipper::Triangles(t) => SlabClipper::new(&t[prim as usize], axis, bounds).bin(
-                map,
-                *bins.start(),
-                *bins.end(),
-                f,
-            ),
-            Clipper::Custom(c) => c.bin(prim, axis, bounds, map, bins, &mut f),
-        }
-    }
-
-    /// See [`SplitPrimitive::estimate`]. Triangles: [`plane_pieces`].
-    #[inline]
-    pub fn estimate(&self, prim: u32, axis: Axis, pos: f32, bounds: &Aabb) -> (Aabb, Aabb) {
-        match self {
-            Clipper::Triangles(t) => plane_pieces(&t[prim as usize], axis, pos, bounds),
-            Clipper::Custom(c) => c.estimate(prim, axis, pos, bounds),
-        }
-    }
-}
+pub use apply::{apply_spatial, child_budgets, share_budget};
+pub use clip::{clip_halves, plane_pieces, Clipper, SlabClipper, SplitPrimitive};
+pub use estimate::{estimated_spatial_search, EstimateScratch};
 
 /// A rated spatial split.
 #[derive(Clone, Copy, Debug)]
@@ -643,173 +548,6 @@ fn count_span(map: &BinMap, r: &Ref, axis: Axis, bins: &mut [SpatialBin]) -> (us
     (first, last)
 }
 
-/// The sweep over the filled bins of one axis: the `k` best planes. (On x86-64 the builders
-/// use its batched twin, `PlaneRating::rate_batched`; this is the reference it is tested
-/// against.)
-#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-fn rate_spatial_planes(
-    bins: &[SpatialBin],
-    right: &mut [(f32, u32)],
-    rating: &PlaneRating,
-    cands: &mut Vec<SpatialCand>,
-) {
-    let (n, budget) = (rating.n, rating.budget);
-    let nb = bins.len();
-    let side = |i: usize| {
-        (
-            &bins[i].bounds,
-            &bins[i].bounds,
-            bins[i].enter,
-            bins[i].exit,
-        )
-    };
-    sweep_spatial_planes(nb, side, right, n, budget, |i, lb, nl, ra: &f32, nr| {
-        let (la, ra) = (half_area(lb), ra.area());
-        rating.offer(cands, i, la, nl, ra, nr, la * nl as f64 + ra * nr as f64);
-    });
-}
-
-/// The plane sweep of a spatial binning of `nb` bins: `bin(i)` gives the box that bin `i`
-/// adds to a left side, the box it adds to a right side, and how many references enter and
-/// leave in it. The suffix goes right to left into `right`, then `visit(plane, left, n_left,
-/// right, n_right)` runs left to right for every plane with references on both sides whose
-/// duplication (`n_left + n_right - n`) fits `budget`.
-#[inline]
-#[allow(clippy::needless_range_loop)]
-fn sweep_spatial_planes<'b, S: Suffix>(
-    nb: usize,
-    bin: impl Fn(usize) -> (&'b Aabb, &'b Aabb, u32, u32),
-    right: &mut [(S, u32)],
-    n: usize,
-    budget: usize,
-    mut visit: impl FnMut(usize, &Aabb, usize, &S, usize),
-) {
-    let mut acc = Aabb::EMPTY;
-    let mut rc = 0u32;
-    for i in (1..nb).rev() {
-        let (_, r, _, exit) = bin(i);
-        acc.grow_aabb(r);
-        rc += exit;
-        right[i] = (S::of(&acc), rc);
-    }
-    let mut lb = Aabb::EMPTY;
-    let mut lc = 0u32;
-    for i in 1..nb {
-        let (l, _, enter, _) = bin(i - 1);
-        lb.grow_aabb(l);
-        lc += enter;
-        let (r, rc) = &right[i];
-        let (nl, nr) = (lc as usize, *rc as usize);
-        if nl == 0 || nr == 0 || (nl + nr).saturating_sub(n) > budget {
-            continue;
-        }
-        visit(i, &lb, nl, r, nr);
-    }
-}
-
-/// Clips a triangle reference into the consecutive slabs of a spatial binning.
-///
-/// Equivalent to cutting the reference with [`sahara_geom::clip::split_triangle_bounds`] at
-/// every plane it straddles, from left to right, but each plane's crossing points (where the
-/// triangle's edges pierce it) are computed once and shared by the two bins that plane
-/// bounds, in `f32`. The box of a bin's piece is the bounds of the triangle's vertices inside
-/// the slab and of the crossing points on its two planes, intersected with the reference's box
-/// and the slab: the bounds of the real triangle clipped to the slab, up to rounding. Binning
-/// only estimates costs; the split that is finally applied clips exactly ([`clip_halves`]).
-pub struct SlabClipper<'a> {
-    axis: Axis,
-    bounds: &'a Aabb,
-    /// The vertices sorted by their coordinate on `axis`.
-    v: [Vec3A; 3],
-    /// Per unit of `axis`, the direction of the edges v0→v2, v0→v1 and v1→v2.
-    dir: [Vec3A; 3],
-}
-
-impl<'a> SlabClipper<'a> {
-    /// The clipper of `tri`'s reference with box `bounds` along `axis`. Always inlined: the
-    /// SIMD binning reads it right away, and a returned copy stalls on store forwarding.
-    #[inline(always)]
-    pub fn new(tri: &Triangle, axis: Axis, bounds: &'a Aabb) -> Self {
-        let mut v = tri.v;
-        if v[0][axis] > v[1][axis] {
-            v.swap(0, 1);
-        }
-        if v[1][axis] > v[2][axis] {
-            v.swap(1, 2);
-        }
-        if v[0][axis] > v[1][axis] {
-            v.swap(0, 1);
-        }
-        let d = |p: Vec3A, q: Vec3A| {
-            let da = q[axis] - p[axis];
-            if da > 0.0 {
-                (q - p) / da
-            } else {
-                Vec3A::ZERO
-            }
-        };
-        let dir = [d(v[0], v[2]), d(v[0], v[1]), d(v[1], v[2])];
-        Self {
-            axis,
-            bounds,
-            v,
-            dir,
-        }
-    }
-
-    /// Bounds of the points where the triangle's edges cross the plane `x[axis] = pos`.
-    #[inline]
-    fn crossing(&self, pos: f32) -> Aabb {
-        let a = self.axis;
-        let v = &self.v;
-        if !(pos > v[0][a] && pos < v[2][a]) {
-            return Aabb::EMPTY;
-        }
-        // The points' coordinate on `axis` is `pos` up to rounding; the caller clamps it.
-        let long = v[0] + self.dir[0] * (pos - v[0][a]);
-        let short = if pos < v[1][a] {
-            v[0] + self.dir[1] * (pos - v[0][a])
-        } else {
-            v[1] + self.dir[2] * (pos - v[1][a])
-        };
-        Aabb::new(long.min(short), long.max(short))
-    }
-
-    /// Calls `f(bin, piece_bounds)` for every bin `first..=last` the reference spans.
-    #[inline]
-    pub fn bin(&self, map: &BinMap, first: usize, last: usize, mut f: impl FnMut(usize, &Aabb)) {
-        let a = self.axis;
-        // Lane masks instead of writes to one lane: those go through memory and stall.
-        let mask = Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(a as f32));
-        let mut lower_pos = f32::NEG_INFINITY;
-        let mut lower = Aabb::EMPTY;
-        for b in first..=last {
-            let (upper_pos, upper) = if b == last {
-                (f32::INFINITY, Aabb::EMPTY)
-            } else {
-                let p = map.plane(b + 1);
-                (p, self.crossing(p))
-            };
-            let mut piece = lower.union(&upper);
-            for p in &self.v {
-                if p[a] >= lower_pos && p[a] <= upper_pos {
-                    piece.grow(*p);
-                }
-            }
-            let slab = Aabb::new(
-                Vec3A::select(mask, Vec3A::splat(lower_pos), self.bounds.min),
-                Vec3A::select(mask, Vec3A::splat(upper_pos), self.bounds.max),
-            );
-            let piece = piece.intersection(self.bounds).intersection(&slab);
-            if !piece.is_empty() {
-                f(b, &piece);
-            }
-            lower_pos = upper_pos;
-            lower = upper;
-        }
-    }
-}
-
 impl SlabClipper<'_> {
     /// [`bin`](Self::bin) into `bins` directly, with the plane positions read from `planes`
     /// (`planes[i] == map.plane(i)`) and without branches on the pieces: the same boxes, bit
@@ -866,382 +604,74 @@ impl SlabClipper<'_> {
     }
 }
 
-/// Bounds of the parts of `tri` inside the two halves of `cur` cut at `pos` on `axis`.
-///
-/// The triangle is clipped to each half box, so a non-empty half touches the triangle. The
-/// clipped polygon's vertices are rounded to `f32`, which may move them off the triangle by
-/// half a unit in the last place: on a triangle that is almost flat along an axis this is
-/// enough for the rounded box to miss the real triangle. Each piece's box is therefore grown
-/// by about two units in the last place and then intersected with its half box again, so that
-/// it stays inside the reference's box and on its side of the plane.
-pub fn clip_halves(tri: &Triangle, axis: Axis, pos: f32, cur: &Aabb) -> (Aabb, Aabb) {
-    let mut lbox = *cur;
-    lbox.max[axis] = lbox.max[axis].min(pos);
-    let mut rbox = *cur;
-    rbox.min[axis] = rbox.min[axis].max(pos);
-    let piece = |half: &Aabb| {
-        let b = clipped_bounds(tri, half);
-        if b.is_empty() {
-            return b;
-        }
-        let slack = |v: Vec3A| v.abs() * (2.0 * f32::EPSILON) + Vec3A::splat(f32::MIN_POSITIVE);
-        Aabb::new(b.min - slack(b.min), b.max + slack(b.max)).intersection(half)
-    };
-    (piece(&lbox), piece(&rbox))
-}
-
-/// Bounds of the parts of `tri` on each side of the plane `x[axis] = pos` (its vertices on
-/// that side and the points where its edges cross the plane), intersected with the
-/// reference's box `b` and the half space, as the binning bounds a piece (in `f32`; an
-/// estimate for ratings, see [`estimated_spatial_search`]).
-#[inline]
-pub fn plane_pieces(tri: &Triangle, axis: Axis, pos: f32, b: &Aabb) -> (Aabb, Aabb) {
-    let mut l = Aabb::EMPTY;
-    let mut r = Aabb::EMPTY;
-    for k in 0..3 {
-        let p = tri.v[k];
-        let q = tri.v[(k + 1) % 3];
-        let (pa, qa) = (p[axis], q[axis]);
-        if pa <= pos {
-            l.grow(p);
-        }
-        if pa >= pos {
-            r.grow(p);
-        }
-        if (pa < pos && qa > pos) || (pa > pos && qa < pos) {
-            let x = p + (q - p) * ((pos - pa) / (qa - pa));
-            l.grow(x);
-            r.grow(x);
-        }
-    }
-    let mut lb = *b;
-    lb.max[axis] = lb.max[axis].min(pos);
-    let mut rb = *b;
-    rb.min[axis] = rb.min[axis].max(pos);
-    (l.intersection(&lb), r.intersection(&rb))
-}
-
-/// The two sides of a spatial split (with reference unsplitting if asked), or `None` when one
-/// side would be empty. No primitive is lost: a reference is dropped from a side only when its
-/// part there is empty, and then it goes whole to the other side.
-pub fn apply_spatial(
-    clipper: &Clipper,
-    refs: &[Ref],
-    cand: &SpatialCand,
-    unsplitting: bool,
-) -> Option<(Vec<Ref>, Vec<Ref>)> {
-    let (axis, pos, map) = (cand.axis, cand.pos, cand.map);
-    let mut left = Vec::with_capacity(cand.n_left);
-    let mut right = Vec::with_capacity(cand.n_right);
-    let mut lb = Aabb::EMPTY;
-    let mut rb = Aabb::EMPTY;
-    let mut straddling = Vec::new();
-    for r in refs {
-        let first = map.bin(r.bounds.min[axis]);
-        let last = map.bin(r.bounds.max[axis]);
-        if last < cand.plane {
-            left.push(*r);
-            lb.grow_aabb(&r.bounds);
-        } else if first >= cand.plane {
-            right.push(*r);
-            rb.grow_aabb(&r.bounds);
-        } else {
-            straddling.push(*r);
-        }
-    }
-    for s in straddling {
-        let (pl, pr) = clipper.split(s.prim, axis, pos, &s.bounds);
-        let piece = |bounds| Ref {
-            bounds,
-            prim: s.prim,
-        };
-        let side = match (pl.is_empty(), pr.is_empty()) {
-            // Rounding left nothing on either side: keep the reference whole.
-            (true, true) => {
-                if s.bounds.centroid()[axis] < pos {
-                    Side::WholeLeft
-                } else {
-                    Side::WholeRight
-                }
-            }
-            (false, true) => {
-                left.push(piece(pl));
-                lb.grow_aabb(&pl);
-                continue;
-            }
-            (true, false) => {
-                right.push(piece(pr));
-                rb.grow_aabb(&pr);
-                continue;
-            }
-            (false, false) if unsplitting => {
-                let (nl, nr) = (left.len() as f64, right.len() as f64);
-                let c_split =
-                    half_area(&lb.union(&pl)) * (nl + 1.0) + half_area(&rb.union(&pr)) * (nr + 1.0);
-                let c_left = half_area(&lb.union(&s.bounds)) * (nl + 1.0) + half_area(&rb) * nr;
-                let c_right = half_area(&lb) * nl + half_area(&rb.union(&s.bounds)) * (nr + 1.0);
-                if c_left < c_split && c_left <= c_right {
-                    Side::WholeLeft
-                } else if c_right < c_split {
-                    Side::WholeRight
-                } else {
-                    Side::Split
-                }
-            }
-            (false, false) => Side::Split,
-        };
-        match side {
-            Side::WholeLeft => {
-                left.push(s);
-                lb.grow_aabb(&s.bounds);
-            }
-            Side::WholeRight => {
-                right.push(s);
-                rb.grow_aabb(&s.bounds);
-            }
-            Side::Split => {
-                left.push(piece(pl));
-                lb.grow_aabb(&pl);
-                right.push(piece(pr));
-                rb.grow_aabb(&pr);
-            }
-        }
-    }
-    if left.is_empty() || right.is_empty() {
-        None
-    } else {
-        Some((left, right))
-    }
-}
-
-enum Side {
-    WholeLeft,
-    WholeRight,
-    Split,
-}
-
-/// Splits what is left of a duplication budget between two children in proportion to their
-/// reference counts (deterministic, whatever the order in which subtrees are built).
-#[inline]
-pub fn share_budget(budget: usize, n_left: usize, n_right: usize) -> (usize, usize) {
-    let total = (n_left + n_right) as u128;
-    if total == 0 {
-        return (budget / 2, budget - budget / 2);
-    }
-    let left = (budget as u128 * n_left as u128 / total) as usize;
-    (left, budget - left)
-}
-
-/// The duplication budgets of two children with `n_left` and `n_right` references made from
-/// a parent with `n_parent` references and budget `budget`: what the split did not use, shared
-/// in proportion to the children's reference counts.
-pub fn child_budgets(
-    n_parent: usize,
-    n_left: usize,
-    n_right: usize,
-    budget: usize,
-) -> (usize, usize) {
-    let dups = (n_left + n_right).saturating_sub(n_parent);
-    share_budget(budget.saturating_sub(dups), n_left, n_right)
-}
-
-// ---------------------------------------------------------------------------------------------
-// The estimate.
-
-/// A spatial split rated with the references' boxes (no cutting).
-#[derive(Clone, Copy)]
-struct Rough {
-    score: f64,
-    axis: Axis,
-    plane: usize,
-    map: BinMap,
-    n_left: usize,
-    n_right: usize,
-}
-
-impl Rough {
-    /// The candidate order: score, then axis, then plane.
-    fn better(&self, other: &Rough) -> bool {
-        ranks_before(
-            self.score,
-            || (0, self.axis, self.plane),
-            other.score,
-            || (0, other.axis, other.plane),
-        )
-    }
-}
-
-#[derive(Clone, Copy)]
-struct BoxBin {
-    /// Union of the boxes of the references whose first bin is this one.
-    by_first: Aabb,
-    /// Union of the boxes of the references whose last bin is this one.
-    by_last: Aabb,
-    /// References whose first bin is this one.
-    enter: u32,
-    /// References whose last bin is this one.
-    exit: u32,
-}
-
-/// Reusable buffers of [`estimated_spatial_search`].
-#[derive(Default)]
-pub struct EstimateScratch {
-    bins: Vec<BoxBin>,
-    right: Vec<(Aabb, u32)>,
-}
-
-/// The estimated best spatial split of a node with `bins` bins per axis whose duplication
-/// fits `budget`: the references are counted as [`spatial_search`] counts them, each side of
-/// a plane is bounded by the boxes of the references reaching it, cut at the plane; the
-/// `refine` best planes over the three axes are then re-rated with the straddling primitives
-/// cut by [`Clipper::estimate`], and the best of those is returned.
-#[allow(clippy::too_many_arguments)]
-pub fn estimated_spatial_search(
-    clipper: &Clipper,
-    refs: &[Ref],
-    bounds: &Aabb,
-    area: f64,
-    budget: usize,
-    bins: usize,
-    refine: usize,
-    cost: &CostModel,
-    scratch: &mut EstimateScratch,
-) -> Option<SpatialCand> {
-    let per_axis: Vec<Vec<Rough>> = if refs.len() >= PAR_AXES_THRESHOLD {
-        (0..3)
-            .into_par_iter()
-            .map(|axis| {
-                let sc = &mut EstimateScratch::default();
-                rough_axis(refs, bounds, axis, budget, bins, refine, sc)
-            })
-            .collect()
-    } else {
-        (0..3)
-            .map(|axis| rough_axis(refs, bounds, axis, budget, bins, refine, scratch))
-            .collect()
-    };
-    let mut rough: Vec<Rough> = Vec::with_capacity(refine);
-    for r in per_axis.into_iter().flatten() {
-        offer(&mut rough, refine, r, Rough::better);
-    }
-    let mut best: Option<SpatialCand> = None;
-    for r in &rough {
-        let cand = refine_plane(clipper, refs, r, area, cost);
-        if best.as_ref().is_none_or(|b| cand.better(b)) {
-            best = Some(cand);
-        }
-    }
-    best
-}
-
-/// The `keep` best planes of one axis by the box estimate.
-fn rough_axis(
-    refs: &[Ref],
-    bounds: &Aabb,
-    axis: Axis,
-    budget: usize,
-    nb: usize,
-    keep: usize,
-    sc: &mut EstimateScratch,
-) -> Vec<Rough> {
-    let Some(map) = BinMap::new(bounds.min[axis], bounds.max[axis], nb) else {
-        return Vec::new();
-    };
-    let empty = BoxBin {
-        by_first: Aabb::EMPTY,
-        by_last: Aabb::EMPTY,
-        enter: 0,
-        exit: 0,
-    };
-    let bins = &mut sc.bins;
-    bins.clear();
-    bins.resize(nb, empty);
-    for r in refs {
-        let first = map.bin(r.bounds.min[axis]);
-        let last = map.bin(r.bounds.max[axis]);
-        bins[first].enter += 1;
-        bins[first].by_first.grow_aabb(&r.bounds);
-        bins[last].exit += 1;
-        bins[last].by_last.grow_aabb(&r.bounds);
-    }
-    // Lane masks instead of writes to one lane (those go through memory and stall).
-    let mask = Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(axis as f32));
-    let right = &mut sc.right;
-    right.clear();
-    right.resize(nb, (Aabb::EMPTY, 0));
-    let mut rough: Vec<Rough> = Vec::with_capacity(keep);
+/// The sweep over the filled bins of one axis: the `k` best planes. (On x86-64 the builders
+/// use its batched twin, `PlaneRating::rate_batched`; this is the reference it is tested
+/// against.)
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn rate_spatial_planes(
+    bins: &[SpatialBin],
+    right: &mut [(f32, u32)],
+    rating: &PlaneRating,
+    cands: &mut Vec<SpatialCand>,
+) {
+    let (n, budget) = (rating.n, rating.budget);
+    let nb = bins.len();
     let side = |i: usize| {
-        let b = &bins[i];
-        (&b.by_first, &b.by_last, b.enter, b.exit)
+        (
+            &bins[i].bounds,
+            &bins[i].bounds,
+            bins[i].enter,
+            bins[i].exit,
+        )
     };
-    sweep_spatial_planes(
-        nb,
-        side,
-        right,
-        refs.len(),
-        budget,
-        |i, lb, nl, rb: &Aabb, nr| {
-            let pos = Vec3A::splat(map.plane(i));
-            let l = Aabb::new(lb.min, Vec3A::select(mask, lb.max.min(pos), lb.max));
-            let r = Aabb::new(Vec3A::select(mask, rb.min.max(pos), rb.min), rb.max);
-            let score = half_area(&l) * nl as f64 + half_area(&r) * nr as f64;
-            if rough.len() == keep && score >= rough[keep - 1].score {
-                return;
-            }
-            let cand = Rough {
-                score,
-                axis,
-                plane: i,
-                map,
-                n_left: nl,
-                n_right: nr,
-            };
-            offer(&mut rough, keep, cand, Rough::better);
-        },
-    );
-    rough
+    sweep_spatial_planes(nb, side, right, n, budget, |i, lb, nl, ra: &f32, nr| {
+        let (la, ra) = (half_area(lb), ra.area());
+        rating.offer(cands, i, la, nl, ra, nr, la * nl as f64 + ra * nr as f64);
+    });
 }
 
-/// Rates a plane found by the box estimate with the straddling primitives cut at it.
-fn refine_plane(
-    clipper: &Clipper,
-    refs: &[Ref],
-    r: &Rough,
-    area: f64,
-    cost: &CostModel,
-) -> SpatialCand {
-    let (axis, plane, map) = (r.axis, r.plane, r.map);
-    let pos = map.plane(plane);
-    let mut lb = Aabb::EMPTY;
-    let mut rb = Aabb::EMPTY;
-    for rf in refs {
-        if map.bin(rf.bounds.max[axis]) < plane {
-            lb.grow_aabb(&rf.bounds);
-        } else if map.bin(rf.bounds.min[axis]) >= plane {
-            rb.grow_aabb(&rf.bounds);
-        } else {
-            let (pl, pr) = clipper.estimate(rf.prim, axis, pos, &rf.bounds);
-            lb.grow_aabb(&pl);
-            rb.grow_aabb(&pr);
-        }
+/// The plane sweep of a spatial binning of `nb` bins: `bin(i)` gives the box that bin `i`
+/// adds to a left side, the box it adds to a right side, and how many references enter and
+/// leave in it. The suffix goes right to left into `right`, then `visit(plane, left, n_left,
+/// right, n_right)` runs left to right for every plane with references on both sides whose
+/// duplication (`n_left + n_right - n`) fits `budget`.
+#[inline]
+#[allow(clippy::needless_range_loop)]
+pub(super) fn sweep_spatial_planes<'b, S: Suffix>(
+    nb: usize,
+    bin: impl Fn(usize) -> (&'b Aabb, &'b Aabb, u32, u32),
+    right: &mut [(S, u32)],
+    n: usize,
+    budget: usize,
+    mut visit: impl FnMut(usize, &Aabb, usize, &S, usize),
+) {
+    let mut acc = Aabb::EMPTY;
+    let mut rc = 0u32;
+    for i in (1..nb).rev() {
+        let (_, r, _, exit) = bin(i);
+        acc.grow_aabb(r);
+        rc += exit;
+        right[i] = (S::of(&acc), rc);
     }
-    let (la, ra) = (half_area(&lb), half_area(&rb));
-    let (nl, nr) = (r.n_left, r.n_right);
-    SpatialCand {
-        axis,
-        plane,
-        map,
-        pos,
-        score: la * nl as f64 + ra * nr as f64,
-        cost: cost.split_cost(area, la, nl, ra, nr),
-        n_left: nl,
-        n_right: nr,
+    let mut lb = Aabb::EMPTY;
+    let mut lc = 0u32;
+    for i in 1..nb {
+        let (l, _, enter, _) = bin(i - 1);
+        lb.grow_aabb(l);
+        lc += enter;
+        let (r, rc) = &right[i];
+        let (nl, nr) = (lc as usize, *rc as usize);
+        if nl == 0 || nr == 0 || (nl + nr).saturating_sub(n) > budget {
+            continue;
+        }
+        visit(i, &lb, nl, r, nr);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sahara_geom::Triangle;
 
     /// A small deterministic generator (no dependency on a RNG crate in unit tests).
     pub(super) fn lcg(state: &mut u64) -> f32 {
