@@ -9,9 +9,11 @@ mod bvh;
 mod eval;
 mod hardcases;
 mod measure;
+mod miri;
 mod oracle;
 mod package;
 mod reinsert_rays;
+mod sanitize;
 mod scaling;
 mod scenes;
 mod study;
@@ -81,6 +83,12 @@ enum Cmd {
     /// Reinsertion driven by the ray-weighted cost of a training ray set, against sweep and
     /// sweep+reinsert, measured on other rays (docs/builders-frontier.md, "Beyond SAH").
     ReinsertRays(reinsert_rays::Args),
+    /// The unsafe code under Miri: the Miri suites of sahara-traverse and sahara-builders, at
+    /// the baseline ISA and built with AVX2+FMA (nightly with the miri component).
+    Miri(miri::Args),
+    /// The test suites of the crates with unsafe code under AddressSanitizer (`--sanitizers
+    /// address,thread` adds ThreadSanitizer), nightly with `-Zbuild-std`.
+    Sanitize(sanitize::Args),
     /// `cargo package` with verification of every publishable crate together (takes minutes;
     /// not part of the test suite).
     Package(package::Args),
@@ -102,6 +110,8 @@ fn main() {
         Cmd::Study(a) => study::run(a),
         Cmd::Measure(a) => measure::run(a),
         Cmd::ReinsertRays(a) => reinsert_rays::run(a),
+        Cmd::Miri(a) => miri::run(a),
+        Cmd::Sanitize(a) => sanitize::run(a),
         Cmd::Package(a) => package::run(a),
     };
     if let Err(e) = result {

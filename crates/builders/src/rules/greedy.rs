@@ -53,8 +53,8 @@ use crate::split::sweep::{best_split, SplitCandidate};
 use crate::topdown::{Rule, Step};
 
 /// The parallel threshold of the `sweep` builder's default configuration (see
-/// [`Rule::parallel_threshold`]).
-pub const PARALLEL_THRESHOLD: usize = 4096;
+/// [`Rule::parallel_threshold`]). 64 under Miri (see `split/mod.rs`).
+pub const PARALLEL_THRESHOLD: usize = if cfg!(miri) { 64 } else { 4096 };
 
 /// A node of a build over presorted orders: its segment of the three orders (which end up as
 /// the leaves' references) and of the scratch arrays.

@@ -33,16 +33,23 @@ pub mod sweep;
 
 use sahara_geom::Aabb;
 
+// Under Miri the parallel thresholds and chunks below are a few dozen references, so that the
+// inputs Miri can afford (hundreds of triangles) take the parallel paths: the same code, only
+// where it starts differs, and the trees are the same (`tests/miri.rs` checks them against
+// fingerprints recorded outside Miri; docs/robustness.md lists every such difference).
+
 /// Nodes with at least this many primitives bin and bound in parallel (in chunks of
-/// [`PAR_CHUNK`]).
-pub const PAR_NODE_THRESHOLD: usize = 32 * 1024;
+/// [`PAR_CHUNK`]). 64 under Miri.
+pub const PAR_NODE_THRESHOLD: usize = if cfg!(miri) { 64 } else { 32 * 1024 };
 
 /// Chunk size of parallel reductions over primitives. Fixed, so that chunking never depends
 /// on the number of threads (and the reductions are exact anyway: integer sums, min and max).
-pub const PAR_CHUNK: usize = 8 * 1024;
+/// 16 under Miri.
+pub const PAR_CHUNK: usize = if cfg!(miri) { 16 } else { 8 * 1024 };
 
-/// Nodes with at least this many references search their three axes in parallel.
-pub const PAR_AXES_THRESHOLD: usize = 8 * 1024;
+/// Nodes with at least this many references search their three axes in parallel. 64 under
+/// Miri.
+pub const PAR_AXES_THRESHOLD: usize = if cfg!(miri) { 64 } else { 8 * 1024 };
 
 /// Half the surface area of a box in `f64` (the SAH only ever uses ratios of areas).
 #[inline]
@@ -128,7 +135,7 @@ pub fn sort_by_key(keys: &mut Vec<u64>, n: usize, key: impl Fn(usize) -> (f32, u
 }
 
 /// Inputs of at least this many items are radix-sorted by [`sort_by_key`].
-pub const RADIX_MIN: usize = 1024;
+pub const RADIX_MIN: usize = if cfg!(miri) { 64 } else { 1024 };
 
 /// Sorts unique words ascending with an LSD radix sort of 11-bit digits, skipping every digit
 /// that all words share. With `low_increasing` (the low halves are strictly increasing in the

@@ -238,9 +238,19 @@ impl Par {
     /// teapot: 16k) ran on one thread even when two were there; 4096 cut the teapot's two-thread
     /// collapse by a quarter and was no slower at one thread or on larger scenes
     /// (docs/results/2026-12-04-zen5).
-    const DEFAULT: Par = Par {
-        plan_nodes: 1 << 12,
-        refs: 1 << 12,
+    ///
+    /// Under Miri both are 16, so that the small trees Miri can afford take the parallel
+    /// paths (the same code; only where it starts differs).
+    const DEFAULT: Par = if cfg!(miri) {
+        Par {
+            plan_nodes: 16,
+            refs: 16,
+        }
+    } else {
+        Par {
+            plan_nodes: 1 << 12,
+            refs: 1 << 12,
+        }
     };
 }
 

@@ -30,13 +30,17 @@ pub fn partition(refs: &mut [PrimRef], p: &Plane, wrong: &mut Vec<u32>) -> (usiz
     partition_branchless(refs, p, wrong).unwrap_or_else(|| partition_serial(refs, p))
 }
 
+/// Above this many references the median split sorts in parallel (the keys are unique, so the
+/// order is the same). 64 under Miri.
+const PAR_SORT_THRESHOLD: usize = if cfg!(miri) { 64 } else { 1 << 14 };
+
 /// Object median split on the largest axis of the centroid bounds `cb`, by (centroid, index):
 /// sorts the references and returns the size of the left half.
 pub fn median_split(refs: &mut [PrimRef], cb: &Aabb) -> usize {
     let axis = cb.largest_axis();
     // The keys are unique (ids are), so the order does not depend on the algorithm.
     let key = |r: &PrimRef| ((float_key(r.centroid_on(axis)) as u64) << 32) | r.id() as u64;
-    if refs.len() > 1 << 14 {
+    if refs.len() > PAR_SORT_THRESHOLD {
         refs.par_sort_unstable_by_key(key);
     } else {
         refs.sort_unstable_by_key(key);
