@@ -1,5 +1,5 @@
 //! Tidy tests (in the style of rust-analyzer's): `docs/ARCHITECTURE.md` checked against the
-//! code, run by `cargo test -p xtask` (and so by CI's `cargo test --workspace`).
+//! code, run by `cargo test -p xtask` (and so by CI's test command, README.md).
 //!
 //! * the workspace dependency graph of every `Cargo.toml` against the document's
 //!   "Allowed dependencies" section;
