@@ -180,8 +180,8 @@ fn build(input: &BuildInput, config: &PlocConfig) -> Bvh {
 /// Clusters per task of the neighbour search: the areas of a chunk's pairs stay in cache.
 const CHUNK: usize = 2048;
 
-/// The largest search radius: a candidate's offset must fit the packed key of
-/// [`candidate_key`].
+/// The largest search radius: a candidate's offset must fit the packed key of the
+/// neighbour search (20 bits).
 pub const MAX_RADIUS: usize = 1 << 20;
 
 /// An `f32` as a `u32` whose unsigned order is `f32::total_cmp`'s.

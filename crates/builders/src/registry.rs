@@ -1,7 +1,7 @@
 //! Builders by name. The xtask, the benches and the test suites enumerate [`entries`], so a
 //! builder registered here appears in every table, plot and test.
 //!
-//! The built-in presets are the table of [`built_in`]: one [`Entry`] per preset, each made from
+//! The built-in presets are one table (`built_in`): one [`Entry`] per preset, each made from
 //! a builder module's configuration (the registry imports the builders; no builder imports
 //! the registry). Presets that combine builders, such as `sweep+reinsert`, are composed here
 //! too. A builder of your own joins them with [`register`] (see `examples/median_split.rs`).

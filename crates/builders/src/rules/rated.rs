@@ -1,6 +1,6 @@
 //! The rated rule, shared by the temporary-subtree builders ([`crate::tsah`]) and the
 //! look-ahead builders ([`crate::popov`]): at every node, sweep the three sorted orders (Eq. 2
-//! at every position), select candidate splits ([`Candidates`]), rate each with a [`Rater`]
+//! at every position), select candidate splits ([`Candidates`]), rate each with a rater
 //! (in parallel for large nodes; the builders differ only in their raters), take the cheapest
 //! (deterministic tie-break), decide leaf or split. Nodes at or below `greedy_below`
 //! primitives are split by the plain sweep rule ([`Greedy`]).

@@ -1,8 +1,8 @@
 //! The SBVH rule (Stich, Friedrich & Dietrich 2009), shared by the `sbvh` builder and the
 //! spatial temporary-subtree builder (`tsah_spatial`), which rates its candidates with
-//! temporaries built by the same rule (or by [`decide_with`] and cheaper searches): its
-//! configuration ([`SbvhConfig`]), a node's task ([`SbvhTask`]: references, depth,
-//! duplication budget), the decision at one node ([`decide`]) and the rule ([`SbvhRule`]).
+//! temporaries built by the same rule (or by its decision with cheaper searches): its
+//! configuration ([`SbvhConfig`]), a node's task (references, depth,
+//! duplication budget), the decision at one node and the rule.
 
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;

@@ -131,7 +131,7 @@ pub(crate) fn decode_leaf(child: u32) -> (usize, usize) {
 /// `valid` are unused; they hold an empty box (minimum `+∞`, maximum `-∞`), whose near slab
 /// distance is `+∞` and far slab distance `-∞` on every axis for every valid ray, so the box
 /// tests reject them without a mask. `order` holds the near-to-far order of the slots for four
-/// ray octants ([`WideNode::order_bits`]), in what was padding. 64-byte aligned: 128 bytes for
+/// ray octants (`WideNode::order_bits`), in what was padding. 64-byte aligned: 128 bytes for
 /// `W = 4`, 256 bytes for `W = 8`.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -241,7 +241,7 @@ impl RefBins {
     }
 
     /// Writes the bins of axis `axis` into `out` (`k` of them) as [`Bin`]s, for
-    /// [`sweep_planes`] and [`sides`].
+    /// [`sweep_planes`](super::sweep_planes) and [`sides`](super::sides).
     pub fn axis_bins(&self, axis: usize, out: &mut Vec<Bin>) {
         out.clear();
         out.extend((axis * self.k..(axis + 1) * self.k).map(|i| self.bin(i)));
@@ -251,7 +251,7 @@ impl RefBins {
     /// to left into `right[1..k]` (half area as `f32`, count), then `visit(plane, left_area,
     /// n_left, right_area, n_right)` left to right for every plane with items on both sides.
     ///
-    /// Bit for bit [`sweep_planes`] over [`axis_bins`](Self::axis_bins) with `S = f32` (the
+    /// Bit for bit [`sweep_planes`](super::sweep_planes) over [`axis_bins`](Self::axis_bins) with `S = f32` (the
     /// same unions in the same operand order, the same `f32` half areas, the left one widened
     /// to `f64`), without copying the bins out: at the many small nodes of a build, those
     /// copies cost more than the fill.
@@ -374,7 +374,7 @@ impl RefBins {
     }
 
     /// The count and bounds of the items in bins `< plane` of axis `axis`, and the bounds of
-    /// the others: bit for bit [`sides`] over [`axis_bins`](Self::axis_bins).
+    /// the others: bit for bit [`sides`](super::sides) over [`axis_bins`](Self::axis_bins).
     pub fn sides(&self, axis: usize, plane: usize) -> (usize, Aabb, Aabb) {
         let k = self.k;
         let base = axis * k;
@@ -399,7 +399,7 @@ impl RefBins {
     }
 
     /// Fills the bins with `refs` by their centroids (`k` bins per axis, the axes without a
-    /// map left empty), exactly as [`fill`] does for the same items in the same order.
+    /// map left empty), exactly as [`fill`](super::fill) does for the same items in the same order.
     pub fn fill(
         &mut self,
         k: usize,
