@@ -103,8 +103,9 @@ impl std::fmt::Display for Quality {
 pub struct BuildOptions {
     /// Which builder runs.
     pub quality: Quality,
-    /// The SAH constants (default `c_t = 1.2`, `c_i = 1`, [`CostModel::AILA`]); they must be
-    /// finite, `c_t >= 0` and `c_i > 0`.
+    /// The SAH constants: the fields `traversal` (the paper's `c_t`, default 1.2) and
+    /// `intersection` (`c_i`, default 1), [`CostModel::AILA`]; both must be finite,
+    /// `traversal >= 0` and `intersection > 0`.
     pub cost: CostModel,
     /// Build on a rayon pool of this many threads (`None`: the current pool). The tree is the
     /// same whatever the count.

@@ -492,3 +492,27 @@ fn stats_count_work() {
         assert_eq!(again, total, "counters are deterministic");
     }
 }
+
+/// `==` on layouts is bit-for-bit equality of the tree (padding lanes' NaN vertices included,
+/// which `f32` equality would call unequal), whatever the precision of the queries.
+#[test]
+fn layouts_compare_bit_for_bit() {
+    let tris = mixed_soup(500, 7);
+    let bvh = sah_bvh(&tris, 8);
+    let w8 = Bvh8::from_bvh(&bvh, &tris);
+    let w4 = Bvh4::from_bvh(&bvh, &tris);
+    // Padding lanes hold NaN: a field-wise `f32` comparison would fail here.
+    assert_eq!(w8, Bvh8::from_bvh(&bvh, &tris));
+    assert_eq!(w4, w4.clone());
+    assert_eq!(w8, w8.clone().with_precision(Precision::Fast));
+    // One vertex one ulp away is another tree.
+    let mut moved = tris.clone();
+    moved[0].v[0].x = f32::from_bits(moved[0].v[0].x.to_bits() + 1);
+    assert_ne!(w8, Bvh8::from_bvh(&bvh, &moved));
+    // Another tree over the same triangles.
+    assert_ne!(w8, Bvh8::from_bvh(&median_bvh(&tris, 2), &tris));
+    assert_eq!(
+        Bvh8::from_bvh(&Bvh::empty(), &[]),
+        Bvh8::from_bvh(&Bvh::empty(), &[])
+    );
+}

@@ -497,11 +497,19 @@ impl<const W: usize> WideBvh<W> {
     pub fn fingerprint(&self) -> u64 {
         const PRIME: u64 = 0x0000_0100_0000_01b3;
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |x: u32| {
+        self.for_each_word(|x| {
             for b in x.to_le_bytes() {
                 h = (h ^ b as u64).wrapping_mul(PRIME);
             }
-        };
+        });
+        h
+    }
+
+    /// Every bit of the tree as 32-bit words, in a fixed order: the node count, each node's
+    /// bounds, children, valid mask and orders, the packet count, each packet's vertices and
+    /// primitive indices, the root and its bounds. What [`WideBvh::fingerprint`] hashes and
+    /// `==` compares.
+    fn for_each_word(&self, mut eat: impl FnMut(u32)) {
         eat(self.nodes.len() as u32);
         for n in self.nodes.iter() {
             n.bounds.iter().flatten().for_each(|f| eat(f.to_bits()));
@@ -520,9 +528,25 @@ impl<const W: usize> WideBvh<W> {
         eat(self.root);
         let (lo, hi) = self.root_bounds.to_arrays();
         lo.iter().chain(&hi).for_each(|f| eat(f.to_bits()));
-        h
     }
 }
+
+/// Two layouts are equal when they are the same tree bit for bit: every node, packet (the NaN
+/// vertices of padding lanes compared by their bits), the root and its bounds, what
+/// [`WideBvh::fingerprint`] hashes. The backend and the precision are settings of the queries,
+/// not of the tree, and are left out: a tree saved and loaded on another CPU equals the one
+/// built here.
+impl<const W: usize> PartialEq for WideBvh<W> {
+    fn eq(&self, other: &Self) -> bool {
+        let mut a = Vec::new();
+        self.for_each_word(|x| a.push(x));
+        let mut b = Vec::with_capacity(a.len());
+        other.for_each_word(|x| b.push(x));
+        a == b
+    }
+}
+
+impl<const W: usize> Eq for WideBvh<W> {}
 
 /// A traversal implementation of the wide layouts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
