@@ -187,6 +187,67 @@ fn exact_ties_go_to_the_lowest_index() {
     }
 }
 
+/// Tiny and huge coordinates, and small triangles far from the origin (the box pad is
+/// relative to the largest coordinate): still brute force bit for bit.
+#[test]
+fn extreme_scales_equal_brute_force() {
+    let base = mixed_soup(800, 13);
+    let moved = |scale: f32, offset: Vec3A| -> Vec<Triangle> {
+        base.iter()
+            .map(|t| {
+                Triangle::new(
+                    t.v[0] * scale + offset,
+                    t.v[1] * scale + offset,
+                    t.v[2] * scale + offset,
+                )
+            })
+            .collect()
+    };
+    check_scene("tiny", &moved(1e-30, Vec3A::ZERO), 600, 6);
+    check_scene("huge", &moved(1e30, Vec3A::ZERO), 600, 7);
+    check_scene("far", &moved(1e-3, Vec3A::new(3e5, -2e5, 1e5)), 600, 8);
+}
+
+/// A leaf box that misses its triangle by one ulp, as a spatial split's clipped box rounded
+/// to `f32` can: the box pad keeps that leaf, so the lower index still wins the tie at
+/// distance zero (without the pad the leaf is pruned and triangle 1 is returned).
+#[test]
+fn the_box_pad_covers_clipped_boxes_off_by_an_ulp() {
+    use sahara_bvh::Node;
+    let tris = [
+        Triangle::new(
+            Vec3A::new(0.0, 1000.0, 0.0),
+            Vec3A::new(2000.0, 1000.0, 0.0),
+            Vec3A::new(0.0, 3000.0, 0.0),
+        ),
+        Triangle::new(
+            Vec3A::new(0.0, 1000.0, 0.0),
+            Vec3A::new(2000.0, 1000.0, 0.0),
+            Vec3A::new(0.0, -1000.0, 0.0),
+        ),
+    ];
+    // On the shared edge: both triangles at distance 0.
+    let p = Vec3A::new(1000.0, 1000.0, 0.0);
+    let mut clipped = tris[0].bounds();
+    clipped.min.y = 1000.0f32.next_up();
+    let root = tris[0].bounds().union(&tris[1].bounds());
+    let bvh = Bvh {
+        nodes: vec![
+            Node::inner(&root, 2),
+            Node::leaf(&tris[1].bounds(), 0, 1),
+            Node::leaf(&clipped, 1, 1),
+        ],
+        prim_indices: vec![1, 0],
+        spatial_splits: true,
+    };
+    let want = brute::closest_point(&tris, p, f32::INFINITY);
+    assert_eq!(want.map(|h| (h.prim, h.distance_squared)), Some((0, 0.0)));
+    for m in [f32::INFINITY, 0.0] {
+        let got = point::closest_point(&bvh, &tris, p, m, &mut NoStats);
+        assert_eq!(bits(&got), bits(&want), "{m}");
+    }
+}
+
 #[test]
 fn max_distance_cuts_off() {
     let tris = [Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)];
