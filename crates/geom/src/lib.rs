@@ -12,6 +12,8 @@
 //! * [`clip`]: clipping a triangle against a box (area and bounds of the clipped polygon) and
 //!   splitting a triangle's bounds by an axis-aligned plane, as spatial splits and the EPO
 //!   metric need;
+//! * [`closest::closest_point_on_triangle`]: the closest point of a triangle to a point
+//!   (Ericson's region method, in `f64`), for closest-point queries;
 //! * [`rng::Pcg32`]: a small deterministic random generator, so that procedural scenes and ray
 //!   sets are bit-identical on every machine and every version of the workspace.
 //!
@@ -32,6 +34,7 @@
 
 mod aabb;
 pub mod clip;
+pub mod closest;
 pub mod intersect;
 mod ray;
 pub mod rng;

@@ -6,6 +6,9 @@
 //! * [`Accel::closest_hit`], [`Accel::any_hit`] (occlusion) and the batch queries
 //!   [`Accel::closest_hits`] and [`Accel::any_hits`] (on rayon, results in the order of the
 //!   rays, the same whatever the thread count);
+//! * [`Accel::closest_point`] and the batch [`Accel::closest_points`]: the point of the
+//!   triangles nearest to a point within a distance ([`PointHit`]), equal to a brute-force
+//!   scan bit for bit (ties: the lowest triangle index);
 //! * [`Accel::save`] and [`Accel::load`] store the whole structure in a versioned,
 //!   checksummed file (the layout is rebuilt on load; see [`file`]); a broken file is a
 //!   [`LoadError`].
@@ -46,6 +49,7 @@
 mod error;
 pub mod file;
 mod instances;
+mod point;
 mod quality;
 
 use std::io::{Read, Write};
@@ -55,6 +59,7 @@ use rayon::prelude::*;
 
 pub use error::{BuildError, Error, LoadError, ValidationError};
 pub use instances::{Affine3A, InstanceHit, Instances};
+pub use point::PointHit;
 pub use quality::{BuildOptions, Quality};
 pub use sahara_bvh::Bvh;
 pub use sahara_geom::{Aabb, Ray, Triangle, Vec3, Vec3A};

@@ -1,8 +1,12 @@
-//! Brute force: every triangle tested, for checking the kernels.
+//! Brute force: every triangle tested, for checking the kernels (ray queries and
+//! closest-point queries).
 
+use crate::point::{Best, PointHit, Query};
 use crate::{Hit, Precision};
-use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast, TriangleHit};
-use sahara_geom::{Ray, Triangle};
+use sahara_geom::intersect::{
+    intersect_triangle, intersect_triangle_fast, is_degenerate, TriangleHit,
+};
+use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
 
 /// The closest hit among all triangles (lowest index on exact ties), with the exact test.
 pub fn closest_hit(tris: &[Triangle], ray: &Ray) -> Hit {
@@ -60,4 +64,39 @@ fn tester(ray: &Ray, precision: Precision) -> impl Fn(&Triangle) -> Option<Trian
             ray.tmax,
         ),
     }
+}
+
+/// The closest point on all triangles to `p` within `max_distance` (ties: lowest index;
+/// degenerate triangles skipped; `None` for a non-finite `p` or a negative or NaN
+/// `max_distance`): the twin every closest-point query over triangles is checked against
+/// (see [`crate::point`]).
+pub fn closest_point(tris: &[Triangle], p: Vec3A, max_distance: f32) -> Option<PointHit> {
+    let q = Query::new(p, max_distance, &Aabb::EMPTY)?;
+    let mut best = Best::new(&q);
+    for (i, t) in tris.iter().enumerate() {
+        if !is_degenerate(t) {
+            best.offer_triangle(&q, t, i as u32);
+        }
+    }
+    best.hit
+}
+
+/// The closest point on all user primitives (boxes `boxes`, callback `closest(prim, p) ->
+/// Option<(point, distance_squared)>`) to `p` within `max_distance`: the twin of the
+/// closest-point queries over user primitives (see [`crate::point`]).
+pub fn closest_point_custom<F>(
+    boxes: &[Aabb],
+    p: Vec3A,
+    max_distance: f32,
+    mut closest: F,
+) -> Option<PointHit>
+where
+    F: FnMut(u32, Vec3A) -> Option<(Vec3A, f64)>,
+{
+    let q = Query::new(p, max_distance, &Aabb::EMPTY)?;
+    let mut best = Best::new(&q);
+    for (i, b) in boxes.iter().enumerate() {
+        best.offer_custom(&q, b, i as u32, &mut closest);
+    }
+    best.hit
 }

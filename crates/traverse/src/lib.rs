@@ -8,6 +8,9 @@
 //!   and any-hit filters on triangles (alpha-tested leaves), with their brute-force references;
 //! * [`instance`]: two-level scenes, a top-level tree over instances (a bottom-level tree and
 //!   an affine transform each);
+//! * [`point`]: closest-point queries (the nearest point of the triangles or of user
+//!   primitives to a point, within a distance) on the binary and the wide trees, nearest box
+//!   first, equal to their brute-force twins bit for bit;
 //! * [`wide`]: 4- and 8-wide BVHs collapsed from the binary tree, with SSE2 / AVX2 kernels
 //!   (and a portable fallback) that return exactly the reference's hits.
 //!
@@ -34,11 +37,13 @@
 pub mod brute;
 pub mod custom;
 pub mod instance;
+pub mod point;
 mod precision;
 pub mod scalar;
 mod stats;
 pub mod wide;
 
+pub use point::PointHit;
 pub use precision::{ParsePrecisionError, Precision};
 pub use sahara_bvh::Bvh;
 pub use stats::{NoStats, TraversalStats, WorkCounters};
