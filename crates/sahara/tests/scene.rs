@@ -7,7 +7,10 @@ use sahara::{
     Aabb, Accel, Error, GeometryId, Intersection, Quality, Ray, Scene, SceneBuilder, SceneError,
     SceneHit, Triangle, Vec3A, ALL_MASK,
 };
-use sahara_fixtures::{rays::segments_in, soups::mixed_soup};
+use sahara_fixtures::{
+    rays::segments_in,
+    soups::{box_soup, mixed_soup},
+};
 use sahara_geom::rng::Pcg32;
 use std::panic::AssertUnwindSafe;
 
@@ -522,5 +525,80 @@ fn a_callback_that_lies_is_clamped_to_its_box_like_brute_force() {
             }
         }
         assert!(clamped > 10, "{q}: only {clamped} clamped hits");
+    }
+}
+
+/// Timings for `docs/facade.md` (one thread, interleaved, best of 5):
+/// `cargo test -p sahara --test scene -- --ignored --nocapture scene_query_timings`.
+#[test]
+#[ignore]
+fn scene_query_timings() {
+    use std::time::Instant;
+    // 200,000 triangles, mostly small, some large, in [-10, 10]^3, as eight meshes.
+    let meshes: Vec<Vec<Triangle>> = (0..8).map(|s| box_soup(25_000, 100 + s)).collect();
+    let all: Vec<Triangle> = meshes.concat();
+    let accel = Accel::build(&all, Quality::Medium).unwrap();
+    let build = |user: bool| {
+        let mut b = SceneBuilder::new();
+        let ids: Vec<GeometryId> = meshes.iter().map(|m| b.add_triangles(m)).collect();
+        b.set_mask(ids[7], 2).unwrap();
+        if user {
+            b.add_primitives(&[], |_: &Ray, _, _, _| None);
+        }
+        b.build(Quality::Medium).unwrap()
+    };
+    let (tris, mixed) = (build(false), build(true));
+    let bounds = Aabb::new(Vec3A::splat(-12.0), Vec3A::splat(12.0));
+    let rays = segments_in(&bounds, 100_000, &mut Pcg32::new(18, 5));
+    let time = |f: &dyn Fn(&Ray) -> bool| {
+        let t = Instant::now();
+        let hits = rays.iter().filter(|r| f(r)).count();
+        (t.elapsed().as_secs_f64() * 1e9 / rays.len() as f64, hits)
+    };
+    type Query<'a> = Box<dyn Fn(&Ray) -> bool + 'a>;
+    let cases: Vec<(&str, Query)> = vec![
+        (
+            "Accel::closest_hit",
+            Box::new(|r| accel.closest_hit(r).is_some()),
+        ),
+        (
+            "Scene::closest_hit, all masks pass (SIMD path)",
+            Box::new(|r| tris.closest_hit(r, ALL_MASK).is_some()),
+        ),
+        (
+            "Scene::closest_hit, mask excludes 1 of 8 meshes",
+            Box::new(|r| tris.closest_hit(r, 1).is_some()),
+        ),
+        (
+            "Scene::closest_hit_filtered, filter keeps all",
+            Box::new(|r| tris.closest_hit_filtered(r, ALL_MASK, |_| true).is_some()),
+        ),
+        (
+            "Scene::closest_hit, with a user geometry (custom path)",
+            Box::new(|r| mixed.closest_hit(r, ALL_MASK).is_some()),
+        ),
+        ("Accel::any_hit", Box::new(|r| accel.any_hit(r))),
+        (
+            "Scene::any_hit, all masks pass",
+            Box::new(|r| tris.any_hit(r, ALL_MASK)),
+        ),
+        (
+            "Scene::any_hit, mask excludes 1 of 8",
+            Box::new(|r| tris.any_hit(r, 1)),
+        ),
+        (
+            "Scene::any_hit, with a user geometry",
+            Box::new(|r| mixed.any_hit(r, ALL_MASK)),
+        ),
+    ];
+    let mut best = vec![(f64::INFINITY, 0); cases.len()];
+    for _ in 0..5 {
+        for (i, (_, f)) in cases.iter().enumerate() {
+            let (ns, hits) = time(f.as_ref());
+            best[i] = (best[i].0.min(ns), hits);
+        }
+    }
+    for ((name, _), (ns, hits)) in cases.iter().zip(best) {
+        println!("{name:58} {ns:8.1} ns/ray  ({hits} hits)");
     }
 }
