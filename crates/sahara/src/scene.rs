@@ -4,6 +4,7 @@
 //! See [`Scene`] and [`SceneBuilder`]; `docs/facade.md` ("Scenes of many geometries") gives
 //! the semantics in one place.
 
+use std::cell::RefCell;
 use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -14,7 +15,7 @@ use sahara_builders::split::BinMap;
 use sahara_builders::BuildInput;
 use sahara_geom::intersect::{intersect_triangle, WatertightRay};
 use sahara_geom::Axis;
-use sahara_traverse::custom::{accept_primitive_hit, primitive_span};
+use sahara_traverse::custom::{accept_primitive_hit, primitive_span, MixedPrims};
 use sahara_traverse::NoStats;
 
 use crate::{Aabb, Backend, BuildOptions, Bvh, Bvh8, CostModel, Error, Quality, Ray, Triangle};
@@ -147,6 +148,10 @@ pub enum SceneError {
     #[error("{0} primitives exceed the 2^32 - 1 a scene can hold")]
     TooManyPrimitives(usize),
 }
+
+/// The filter of a query on a scene with user primitives, which the triangle and the user
+/// callbacks of the mixed traversal take turns with (never at once).
+type SharedFilter<'a> = RefCell<Option<&'a mut dyn FnMut(&SceneHit) -> bool>>;
 
 /// The intersection callback of a user geometry: `(ray, primitive, tmin, tmax)`.
 type IntersectFn = dyn Fn(&Ray, u32, f32, f32) -> Option<Intersection> + Send + Sync;
@@ -461,6 +466,7 @@ impl SceneBuilder {
         }
         let mut triangles = Vec::new();
         let mut boxes = Vec::new();
+        let mut triangle_of = Vec::new();
         let mut geometries = Vec::with_capacity(self.inputs.len());
         let mut first = 0u32;
         for (input, &mask) in self.inputs.iter().zip(&self.masks) {
@@ -470,11 +476,13 @@ impl SceneBuilder {
                     triangles.extend_from_slice(tris);
                     if mixed {
                         boxes.extend(tris.iter().map(Triangle::bounds));
+                        triangle_of.extend(base as u32..(base + tris.len()) as u32);
                     }
                     (Kind::Triangles { base }, tris.len())
                 }
                 Input::User(u) => {
                     boxes.extend_from_slice(&u.boxes);
+                    triangle_of.resize(triangle_of.len() + u.boxes.len(), u32::MAX);
                     (Kind::User(u.intersect.clone()), u.boxes.len())
                 }
             };
@@ -511,7 +519,14 @@ impl SceneBuilder {
         // Never trace an unchecked tree: the wide collapse indexes it without bounds checks.
         let wide = if mixed {
             check_box_tree(&bvh, boxes.len())?;
-            Bvh8::from_boxes(&bvh, &boxes)
+            Bvh8::from_mixed(
+                &bvh,
+                MixedPrims {
+                    boxes: &boxes,
+                    triangles: &triangles,
+                    triangle_of: &triangle_of,
+                },
+            )
         } else {
             bvh.validate(&triangles)?;
             Bvh8::from_bvh(&bvh, &triangles)
@@ -521,6 +536,7 @@ impl SceneBuilder {
             geometries,
             triangles,
             boxes,
+            triangle_of,
             bvh,
             wide,
             quality: options.quality,
@@ -675,9 +691,10 @@ fn geometry_of(geometries: &[Geometry], prim: u32) -> usize {
 /// **Kernels.** A scene of triangles only is traced with the SIMD triangle kernels of
 /// [`Accel`](crate::Accel) when no geometry's mask excludes the ray and no filter is given,
 /// else with their filtered form (same packet test; the mask and the filter are applied to
-/// each candidate that would change the answer). A scene with user primitives is traced with
-/// the user-primitive traversal of `sahara_traverse` (triangles tested by the scalar
-/// watertight test, under the same hit rule).
+/// each candidate that would change the answer). A scene with user primitives has one tree
+/// over all primitives' boxes whose leaves hold the triangles' vertices
+/// (`WideBvh::from_mixed`), traced by `WideBvh::closest_hit_mixed`: the same packet test on the
+/// triangle lanes, the callbacks on the others.
 ///
 /// ```
 /// use sahara::{Quality, Ray, SceneBuilder, Triangle, Vec3A, ALL_MASK};
@@ -704,6 +721,9 @@ pub struct Scene {
     triangles: Vec<Triangle>,
     /// With user primitives: every primitive's box by global index (else empty).
     boxes: Vec<Aabb>,
+    /// With user primitives: per global index, the triangle's index in `triangles`, or
+    /// `u32::MAX` for a user primitive (else empty).
+    triangle_of: Vec<u32>,
     bvh: Bvh,
     wide: Bvh8,
     quality: Quality,
@@ -790,58 +810,75 @@ impl Scene {
         }
     }
 
-    /// The candidate at global index `prim` for the user-primitive traversal: mask, test (the
-    /// watertight test or the callback under the hit rule), filter. `tmax` is the callback's.
+    /// The primitives of a scene with user primitives, for the mixed traversal.
+    fn mixed_prims(&self) -> MixedPrims<'_> {
+        MixedPrims {
+            boxes: &self.boxes,
+            triangles: &self.triangles,
+            triangle_of: &self.triangle_of,
+        }
+    }
+
+    /// A triangle candidate of the mixed traversal (global index `hit.prim`): mask, then
+    /// filter.
     #[inline]
-    fn candidate(
+    fn triangle_candidate(
         &self,
-        w: &WatertightRay,
+        hit: &sahara_traverse::Hit,
+        mask: u32,
+        filter: &SharedFilter<'_>,
+    ) -> Option<SceneHit> {
+        let g = geometry_of(&self.geometries, hit.prim);
+        if self.geometries[g].mask & mask == 0 {
+            return None;
+        }
+        let hit = self.triangle_hit(g, hit);
+        Self::filtered(hit, filter)
+    }
+
+    /// A user-primitive candidate at global index `prim`: mask, the callback (given `tmax`)
+    /// under the hit rule, filter.
+    #[inline]
+    fn user_candidate(
+        &self,
         ray: &Ray,
         prim: u32,
         tmax: f32,
         mask: u32,
-        filter: &mut Option<&mut dyn FnMut(&SceneHit) -> bool>,
+        filter: &SharedFilter<'_>,
     ) -> Option<SceneHit> {
         let g = geometry_of(&self.geometries, prim);
         let geo = &self.geometries[g];
         if geo.mask & mask == 0 {
             return None;
         }
-        let local = prim - geo.first;
-        let hit = match &geo.kind {
-            Kind::Triangles { base } => {
-                let tri = &self.triangles[base + local as usize];
-                let h = intersect_triangle(w, tri, ray.tmin, ray.tmax)?;
-                SceneHit {
-                    geometry: self.id(g),
-                    primitive: local,
-                    t: h.t,
-                    u: h.u,
-                    v: h.v,
-                    normal: tri.cross(),
-                }
-            }
-            Kind::User(intersect) => {
-                let i = intersect(ray, local, ray.tmin, tmax)?;
-                let span = primitive_span(ray, &self.boxes[prim as usize]);
-                SceneHit {
-                    geometry: self.id(g),
-                    primitive: local,
-                    t: accept_primitive_hit(ray, span, i.t)?,
-                    u: i.u,
-                    v: i.v,
-                    normal: i.normal,
-                }
-            }
+        let Kind::User(intersect) = &geo.kind else {
+            unreachable!("the mixed traversal tests triangles with the packet test")
         };
-        if let Some(f) = filter {
-            if !f(&hit) {
-                return None;
-            }
-        }
-        Some(hit)
+        let local = prim - geo.first;
+        let i = intersect(ray, local, ray.tmin, tmax)?;
+        let span = primitive_span(ray, &self.boxes[prim as usize]);
+        let hit = SceneHit {
+            geometry: self.id(g),
+            primitive: local,
+            t: accept_primitive_hit(ray, span, i.t)?,
+            u: i.u,
+            v: i.v,
+            normal: i.normal,
+        };
+        Self::filtered(hit, filter)
     }
 
+    #[inline]
+    fn filtered(hit: SceneHit, filter: &SharedFilter<'_>) -> Option<SceneHit> {
+        let keep = filter.borrow_mut().as_mut().is_none_or(|f| f(&hit));
+        keep.then_some(hit)
+    }
+
+    // Inline, as `Accel`'s queries: the kernels are then instantiated in the caller's crate
+    // like theirs (an instance compiled in this crate measured up to 20% slower in the test
+    // profile).
+    #[inline]
     fn closest(
         &self,
         ray: &Ray,
@@ -853,12 +890,14 @@ impl Scene {
             return None;
         }
         if self.mixed {
-            let w = ray.watertight();
-            let hit = self.wide.closest_hit_custom(
-                &self.boxes,
+            // The two callbacks take turns with the filter, never at once.
+            let filter = RefCell::new(filter);
+            let hit = self.wide.closest_hit_mixed(
+                self.mixed_prims(),
                 ray,
+                |h| self.triangle_candidate(h, mask, &filter),
                 |ray: &Ray, p, _, tmax| {
-                    self.candidate(&w, ray, p, tmax, mask, &mut filter)
+                    self.user_candidate(ray, p, tmax, mask, &filter)
                         .map(|h| (h.t, h))
                 },
                 &mut NoStats,
@@ -882,6 +921,7 @@ impl Scene {
             .then(|| self.triangle_hit(geometry_of(&self.geometries, hit.prim), &hit))
     }
 
+    #[inline]
     fn any(
         &self,
         ray: &Ray,
@@ -893,12 +933,13 @@ impl Scene {
             return false;
         }
         if self.mixed {
-            let w = ray.watertight();
-            return self.wide.any_hit_custom(
-                &self.boxes,
+            let filter = RefCell::new(filter);
+            return self.wide.any_hit_mixed(
+                self.mixed_prims(),
                 ray,
+                |h| self.triangle_candidate(h, mask, &filter).map(|_| ()),
                 |ray: &Ray, p, _, tmax| {
-                    self.candidate(&w, ray, p, tmax, mask, &mut filter)
+                    self.user_candidate(ray, p, tmax, mask, &filter)
                         .map(|h| (h.t, ()))
                 },
                 &mut NoStats,
@@ -1350,8 +1391,9 @@ impl Scene {
         &self.bvh
     }
 
-    /// The 8-wide layout the queries run on (over triangles, or over boxes when the scene has
-    /// user primitives).
+    /// The 8-wide layout the queries run on (over triangles, or over the boxes of all
+    /// primitives, with the triangles' vertices in the leaves, when the scene has user
+    /// primitives).
     ///
     /// ```
     /// let scene = sahara::SceneBuilder::new().build(sahara::Quality::Fast)?;

@@ -548,6 +548,9 @@ fn scene_query_timings() {
         b.build(Quality::Medium).unwrap()
     };
     let (tris, mixed) = (build(false), build(true));
+    // The SIMD path runs on the same tree as the `Accel`.
+    assert!(accel.bvh().nodes == tris.bvh().nodes);
+    assert_eq!(accel.bvh().prim_indices, tris.bvh().prim_indices);
     let bounds = Aabb::new(Vec3A::splat(-12.0), Vec3A::splat(12.0));
     let rays = segments_in(&bounds, 100_000, &mut Pcg32::new(18, 5));
     let time = |f: &dyn Fn(&Ray) -> bool| {

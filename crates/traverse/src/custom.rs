@@ -97,6 +97,30 @@ pub struct PrimHit<D> {
     pub data: D,
 }
 
+/// The primitives of a tree that holds triangles and user primitives together
+/// ([`crate::WideBvh::from_mixed`], [`crate::WideBvh::closest_hit_mixed`]): every primitive's
+/// box (for a triangle, exactly its bounds), and for each primitive the index of its triangle
+/// in `triangles`, or `u32::MAX` for a user primitive (traced by the intersection callback).
+#[derive(Clone, Copy, Debug)]
+pub struct MixedPrims<'a> {
+    /// The box of every primitive (a triangle's must be its [`Triangle::bounds`]).
+    pub boxes: &'a [Aabb],
+    /// The triangles.
+    pub triangles: &'a [Triangle],
+    /// Per primitive, its triangle's index in `triangles`, or `u32::MAX` for a user primitive
+    /// (as long as `boxes`).
+    pub triangle_of: &'a [u32],
+}
+
+impl MixedPrims<'_> {
+    /// The index in `triangles` of primitive `prim`'s triangle, or `None` for a user primitive.
+    #[inline]
+    pub fn triangle(&self, prim: u32) -> Option<u32> {
+        let i = self.triangle_of[prim as usize];
+        (i != u32::MAX).then_some(i)
+    }
+}
+
 /// The ray's computed entry and exit `(n, f)` through a primitive's box: [`slab_span`] with
 /// the far-plane rounding of the ray (`tmin < 0` rays also widen negative far distances).
 #[inline]
