@@ -316,8 +316,9 @@ impl SceneBuilder {
     /// inside its box; a pure function of its arguments; `tmax` only decides whether its `t` is
     /// reported): then every answer equals [`Scene::brute_closest_hit`] bit for bit. Its
     /// distance is clamped into the ray's span through the box. It must be `Send + Sync`
-    /// (batch queries run it on several threads). Invalid boxes (non-finite, inverted) are
-    /// refused by [`SceneBuilder::build`] ([`SceneError::InvalidBox`]).
+    /// (batch queries run it on several threads); a panic in it propagates out of the query,
+    /// as a filter's does ([`Scene::closest_hit_filtered`]). Invalid boxes (non-finite,
+    /// inverted) are refused by [`SceneBuilder::build`] ([`SceneError::InvalidBox`]).
     ///
     /// ```
     /// use sahara::{Aabb, Intersection, Quality, Ray, SceneBuilder, Vec3A, ALL_MASK};
