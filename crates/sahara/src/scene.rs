@@ -21,7 +21,12 @@ use sahara_traverse::NoStats;
 use crate::{Aabb, Backend, BuildOptions, Bvh, Bvh8, CostModel, Error, Quality, Ray, Triangle};
 use crate::{ValidationError, Vec3A};
 
-/// The mask every ray's mask meets: all 32 bits set. New geometries get it.
+/// All 32 bits set: the mask new geometries get, and the ray mask that tests every geometry
+/// whose mask is not zero.
+///
+/// ```
+/// assert_eq!(sahara::ALL_MASK, u32::MAX);
+/// ```
 pub const ALL_MASK: u32 = u32::MAX;
 
 /// Names one geometry of one scene: the position of its `add_*` call on its [`SceneBuilder`]
@@ -123,7 +128,16 @@ pub struct SceneHit {
     pub normal: Vec3A,
 }
 
-/// Why a scene could not be built, or a geometry id was refused.
+/// Why a scene could not be built, or a geometry id was refused (inside
+/// [`Error::Scene`]).
+///
+/// ```
+/// use sahara::{Aabb, Error, Quality, SceneBuilder, SceneError, Vec3A};
+/// let mut b = SceneBuilder::new();
+/// b.add_primitives(&[Aabb::new(Vec3A::ONE, Vec3A::ZERO)], |_: &sahara::Ray, _, _, _| None);
+/// let err = b.build(Quality::Fast).unwrap_err();
+/// assert!(matches!(err, Error::Scene(SceneError::InvalidBox { geometry: 0, primitive: 0 })));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SceneError {
     /// A triangle has a NaN or infinite coordinate.
