@@ -45,6 +45,10 @@ pub enum Error {
         /// Triangles given.
         given: usize,
     },
+    /// A [`Scene`](crate::Scene) refused its geometries (a non-finite triangle, an invalid
+    /// box: the message names the geometry and primitive) or a geometry id of another scene.
+    #[error(transparent)]
+    Scene(#[from] crate::SceneError),
     /// The thread pool for [`BuildOptions::threads`](crate::BuildOptions::threads) could not
     /// be created.
     #[error("cannot create the build's thread pool: {0}")]

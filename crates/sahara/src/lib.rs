@@ -10,7 +10,7 @@
 //!   triangles nearest to a point within a distance ([`PointHit`]), equal to a brute-force
 //!   scan bit for bit (ties: the lowest triangle index);
 //! * [`Accel::save`] and [`Accel::load`] store the whole structure in a versioned,
-//!   checksummed file (the layout is rebuilt on load; see [`file`]); a broken file is a
+//!   checksummed file (the layout is rebuilt on load; see [`file`](mod@file)); a broken file is a
 //!   [`LoadError`].
 //!
 //! **The façade adds no algorithm**: it chooses a registered builder of `sahara-builders` by
@@ -34,10 +34,13 @@
 //!   structure) and traces them as one scene; [`Accel::refit`] moves the vertices and updates
 //!   the bounds of the tree and of its layout without rebuilding.
 //!
-//! **Not here yet.** User primitives (boxes plus an intersection callback) and any-hit
-//! filters are in `sahara-traverse` (`custom`, `WideBvh::closest_hit_custom`,
-//! `WideBvh::closest_hit_filtered`; `docs/primitives.md`) but have no façade type yet
-//! ([`Instances::save`] and [`Accel::save`] store the rest). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! * [`Scene`] ([`SceneBuilder`]) holds many geometries under one BVH: triangle meshes and
+//!   user primitives (boxes plus an intersection callback), each with a [`GeometryId`] and a
+//!   32-bit mask; queries take a ray mask and an optional any-hit filter (alpha testing), and
+//!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal).
+//!
+//! **Not here yet.** Saving a [`Scene`] (user callbacks cannot be stored;
+//! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes. The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example
@@ -51,6 +54,7 @@ pub mod file;
 mod instances;
 mod point;
 mod quality;
+mod scene;
 
 use std::io::{Read, Write};
 use std::path::Path;
@@ -65,6 +69,7 @@ pub use sahara_bvh::Bvh;
 pub use sahara_geom::{Aabb, Ray, Triangle, Vec3, Vec3A};
 pub use sahara_metrics::CostModel;
 pub use sahara_traverse::{Backend, Bvh8, Hit};
+pub use scene::{GeometryId, Intersection, Scene, SceneBuilder, SceneError, SceneHit, ALL_MASK};
 
 /// The lower crates, for what the façade does not cover (other builders, other layouts,
 /// work counters, metrics).
@@ -245,7 +250,7 @@ impl Accel {
         Ok(())
     }
 
-    /// Writes the structure (format in [`file`]).
+    /// Writes the structure (format in [`file`](mod@file)).
     pub fn save<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
         file::save(self, w)
     }

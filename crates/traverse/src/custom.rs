@@ -97,6 +97,56 @@ pub struct PrimHit<D> {
     pub data: D,
 }
 
+/// The primitives of a tree that holds triangles and user primitives together
+/// ([`crate::WideBvh::from_mixed`], [`crate::WideBvh::closest_hit_mixed`]): every primitive's
+/// box (for a triangle, exactly its bounds), and for each primitive the index of its triangle
+/// in `triangles`, or `u32::MAX` for a user primitive (traced by the intersection callback).
+///
+/// ```
+/// use sahara_builders::{registry, BuildInput, CostModel};
+/// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+/// use sahara_traverse::{custom::MixedPrims, Bvh8, NoStats};
+///
+/// // Primitive 0: a triangle at z = 2; primitive 1: a user box at z = 1 that reports its
+/// // entry distance.
+/// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
+/// let boxes = [tri.bounds(), Aabb::new(Vec3A::new(-0.5, -0.5, 1.0), Vec3A::new(0.5, 0.5, 1.5))];
+/// let prims = MixedPrims { boxes: &boxes, triangles: &[tri], triangle_of: &[0, u32::MAX] };
+/// assert_eq!((prims.triangle(0), prims.triangle(1)), (Some(0), None));
+/// let input = BuildInput::from_boxes(&boxes, CostModel::default()).unwrap();
+/// let bvh = registry::by_name("binned").unwrap().build(&input).unwrap();
+/// let wide = Bvh8::from_mixed(&bvh, prims);
+/// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+/// let entry = |_: &Ray, _: u32, _: f32, _: f32| Some((1.0, "box"));
+/// let hit = wide.closest_hit_mixed(prims, &ray, |_| Some("triangle"), entry, &mut NoStats);
+/// assert_eq!(hit.map(|h| (h.t, h.data)), Some((1.0, "box")));
+/// // A ray that starts past the box hits the triangle (the box's distance fails the hit
+/// // rule), unless `accept` rejects it.
+/// let past = Ray::new(Vec3A::new(0.0, 0.0, 1.75), Vec3A::Z, 0.0, f32::INFINITY);
+/// let hit = wide.closest_hit_mixed(prims, &past, |_| Some("triangle"), entry, &mut NoStats);
+/// assert_eq!(hit.map(|h| (h.t, h.data)), Some((0.25, "triangle")));
+/// assert!(wide.closest_hit_mixed(prims, &past, |_| None, entry, &mut NoStats).is_none());
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct MixedPrims<'a> {
+    /// The box of every primitive (a triangle's must be its [`Triangle::bounds`]).
+    pub boxes: &'a [Aabb],
+    /// The triangles.
+    pub triangles: &'a [Triangle],
+    /// Per primitive, its triangle's index in `triangles`, or `u32::MAX` for a user primitive
+    /// (as long as `boxes`).
+    pub triangle_of: &'a [u32],
+}
+
+impl MixedPrims<'_> {
+    /// The index in `triangles` of primitive `prim`'s triangle, or `None` for a user primitive.
+    #[inline]
+    pub fn triangle(&self, prim: u32) -> Option<u32> {
+        let i = self.triangle_of[prim as usize];
+        (i != u32::MAX).then_some(i)
+    }
+}
+
 /// The ray's computed entry and exit `(n, f)` through a primitive's box: [`slab_span`] with
 /// the far-plane rounding of the ray (`tmin < 0` rays also widen negative far distances).
 #[inline]

@@ -1,6 +1,7 @@
 //! User primitives and any-hit filters: every tree layout and backend equals brute force with
 //! the same callback, bit for bit (the sphere example, run small; triangles with a filter that
-//! rejects half of them; a callback that lies about its distances).
+//! rejects half of them; a callback that lies about its distances; triangles and spheres in
+//! one tree).
 
 #[path = "../examples/spheres.rs"]
 #[allow(dead_code)]
@@ -218,4 +219,116 @@ fn empty_trees_and_invalid_rays_miss() {
             .closest_hit_filtered(&ray, |_| true, &mut NoStats)
             .is_hit());
     }
+}
+
+/// Triangles and spheres in one tree ([`WideBvh::from_mixed`]): the packet test with a filter
+/// on the triangles, the sphere callback on the others, equal to a loop over all primitives
+/// in index order on every layout and backend.
+#[test]
+fn triangles_and_spheres_in_one_tree_equal_brute_force() {
+    use sahara_geom::intersect::intersect_triangle;
+    // Primitive p: a sphere when p % 3 == 1, else the next triangle.
+    let balls = spheres::spheres(600, 4);
+    let tris: Vec<Triangle> = mixed_soup(1_200, 22)
+        .iter()
+        .map(|t| Triangle::new(t.v[0] * 10.0, t.v[1] * 10.0, t.v[2] * 10.0))
+        .collect();
+    let (mut boxes, mut triangle_of, mut sphere_of) = (vec![], vec![], vec![]);
+    let (mut t, mut s) = (0u32, 0usize);
+    while (t as usize) < tris.len() || s < balls.len() {
+        let p = boxes.len();
+        if (p % 3 == 1 && s < balls.len()) || t as usize == tris.len() {
+            boxes.push(balls[s].bounds());
+            triangle_of.push(u32::MAX);
+            sphere_of.push(s);
+            s += 1;
+        } else {
+            boxes.push(tris[t as usize].bounds());
+            triangle_of.push(t);
+            sphere_of.push(usize::MAX);
+            t += 1;
+        }
+    }
+    let prims = custom::MixedPrims {
+        boxes: &boxes,
+        triangles: &tris,
+        triangle_of: &triangle_of,
+    };
+    let sphere = |ray: &Ray, p: u32, tmin: f32, tmax: f32| {
+        let (t, n) = balls[sphere_of[p as usize]].intersect(ray, tmin, tmax)?;
+        Some((
+            t,
+            Hit {
+                t,
+                prim: p,
+                u: n.x,
+                v: n.y,
+            },
+        ))
+    };
+    // Keeps even primitives and the u > 0.5 half of the odd triangles.
+    let accept = |h: &Hit| alpha(h).then_some(*h);
+    let brute = |ray: &Ray| {
+        let mut best: Option<custom::PrimHit<Hit>> = None;
+        if !ray.is_valid() {
+            return best;
+        }
+        let w = ray.watertight();
+        for p in 0..boxes.len() as u32 {
+            let bt = best.as_ref().map_or(f32::INFINITY, |b| b.t);
+            let hit = match prims.triangle(p) {
+                Some(i) => intersect_triangle(&w, &tris[i as usize], ray.tmin, ray.tmax)
+                    .map(|h| Hit {
+                        t: h.t,
+                        prim: p,
+                        u: h.u,
+                        v: h.v,
+                    })
+                    .filter(|h| h.t < bt)
+                    .and_then(|h| accept(&h)),
+                None => sphere(ray, p, ray.tmin, ray.tmax).and_then(|(t, d)| {
+                    let span = custom::primitive_span(ray, &boxes[p as usize]);
+                    let t = custom::accept_primitive_hit(ray, span, t)?;
+                    (t < bt).then_some(Hit { t, ..d })
+                }),
+            };
+            if let Some(h) = hit {
+                best = Some(custom::PrimHit {
+                    t: h.t,
+                    prim: p,
+                    data: h,
+                });
+            }
+        }
+        best
+    };
+    let key = |h: &Option<custom::PrimHit<Hit>>| h.map(|h| (h.t.to_bits(), h.prim, bits(&h.data)));
+    let bounds = boxes.iter().fold(Aabb::EMPTY, |b, x| b.union(x));
+    let rays = rays(&bounds, 1_500, 9);
+    let input = BuildInput::from_boxes(&boxes, CostModel::default()).unwrap();
+    let (mut tri_hits, mut sphere_hits) = (0, 0);
+    for name in ["binned", "sweep"] {
+        let bvh = build(name, &input);
+        let (w8, w4) = (Bvh8::from_mixed(&bvh, prims), Bvh4::from_mixed(&bvh, prims));
+        for ray in &rays {
+            let want = brute(ray);
+            match want.map(|h| prims.triangle(h.prim)) {
+                Some(Some(_)) => tri_hits += 1,
+                Some(None) => sphere_hits += 1,
+                None => {}
+            }
+            for b in backends() {
+                let got = w8.closest_hit_mixed_with(b, prims, ray, accept, sphere, &mut NoStats);
+                assert_eq!(key(&got), key(&want), "{name} bvh8 {b} {ray:?}");
+                let got = w4.closest_hit_mixed_with(b, prims, ray, accept, sphere, &mut NoStats);
+                assert_eq!(key(&got), key(&want), "{name} bvh4 {b} {ray:?}");
+                let any = w8.any_hit_mixed_with(b, prims, ray, accept, sphere, &mut NoStats);
+                assert_eq!(any, want.is_some(), "{name} bvh8 {b} any {ray:?}");
+            }
+        }
+    }
+    assert!(
+        tri_hits > 100 && sphere_hits > 100,
+        "{tri_hits} triangle and {sphere_hits} sphere hits"
+    );
 }

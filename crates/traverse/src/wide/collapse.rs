@@ -9,6 +9,7 @@ use super::{
     encode_leaf, Backend, TriPacket, WideBvh, WideNode, LEAF_BIT, LEAF_FIRST_MASK,
     MAX_LEAF_PACKETS, NO_ROOT,
 };
+use crate::custom::MixedPrims;
 use crate::Precision;
 use sahara_bvh::Bvh;
 use sahara_geom::intersect::is_degenerate;
@@ -38,6 +39,8 @@ const C_PACKET: f32 = 0.5;
 pub(crate) enum Source<'a> {
     Triangles(&'a [Triangle]),
     Boxes(&'a [Aabb]),
+    /// Boxes, some of which are triangles ([`WideBvh::from_mixed`](super::WideBvh::from_mixed)).
+    Mixed(MixedPrims<'a>),
 }
 
 impl Source<'_> {
@@ -45,6 +48,7 @@ impl Source<'_> {
         match self {
             Source::Triangles(t) => t.len(),
             Source::Boxes(b) => b.len(),
+            Source::Mixed(m) => m.boxes.len(),
         }
     }
 
@@ -52,6 +56,7 @@ impl Source<'_> {
         match self {
             Source::Triangles(t) => t[p as usize].bounds(),
             Source::Boxes(b) => b[p as usize],
+            Source::Mixed(m) => m.boxes[p as usize],
         }
     }
 
@@ -59,6 +64,7 @@ impl Source<'_> {
         match self {
             Source::Triangles(t) => t[p as usize].centroid(),
             Source::Boxes(b) => b[p as usize].centroid(),
+            Source::Mixed(m) => m.boxes[p as usize].centroid(),
         }
     }
 
@@ -75,7 +81,7 @@ impl Source<'_> {
                     t.as_ptr().wrapping_add(p as usize).cast::<i8>(),
                     std::mem::size_of::<Triangle>(),
                 ),
-                Source::Boxes(b) => (
+                Source::Boxes(b) | Source::Mixed(MixedPrims { boxes: b, .. }) => (
                     b.as_ptr().wrapping_add(p as usize).cast::<i8>(),
                     std::mem::size_of::<Aabb>(),
                 ),
@@ -101,6 +107,10 @@ impl Source<'_> {
         let tri = match self {
             Source::Triangles(tris) => Some(&tris[prim as usize]).filter(|t| !is_degenerate(t)),
             Source::Boxes(_) => None,
+            Source::Mixed(m) => m
+                .triangle(prim)
+                .map(|i| &m.triangles[i as usize])
+                .filter(|t| !is_degenerate(t)),
         };
         for k in 0..3 {
             for a in 0..3 {

@@ -15,7 +15,7 @@ use super::kernel::{
     VecStack, FIXED_STACK,
 };
 use super::{decode_leaf, Backend, TriPacket, WideBvh, LEAF_BIT, NO_ROOT};
-use crate::custom::{offer, PrimHit, UserPrims};
+use crate::custom::{offer, MixedPrims, PrimHit, UserPrims};
 use crate::{Hit, TraversalStats};
 use sahara_bvh::{Bvh, RefitError};
 use sahara_geom::intersect::intersect_triangle;
@@ -190,6 +190,129 @@ impl<const W: usize, G: FnMut(&Hit) -> bool> WideLeaf<W> for FilterLeaf<'_, G> {
             }
         }
         Some(self.best.t)
+    }
+}
+
+/// Triangles and user primitives in one tree: the backend's packet test on the triangle lanes
+/// (user primitives have NaN vertices, never hit), `accept` on each triangle candidate that
+/// would change the answer, and the callback under the hit rule on the user lanes.
+struct MixedLeaf<'a, F, G, D> {
+    prims: UserPrims<'a, F>,
+    triangle_of: &'a [u32],
+    accept: G,
+    ray: &'a Ray,
+    any: bool,
+    found: bool,
+    best: Option<PrimHit<D>>,
+}
+
+impl<F, G: FnMut(&Hit) -> Option<D>, D> MixedLeaf<'_, F, G, D> {
+    #[inline(always)]
+    fn best_t(&self) -> f32 {
+        self.best.as_ref().map_or(f32::INFINITY, |h| h.t)
+    }
+
+    /// Offers one triangle candidate; true when an any-hit query is done.
+    #[inline(always)]
+    fn triangle(&mut self, h: Hit) -> bool {
+        if self.any {
+            if (self.accept)(&h).is_some() {
+                self.found = true;
+                return true;
+            }
+            return false;
+        }
+        let better = match &self.best {
+            None => true,
+            Some(b) => h.t < b.t || (h.t == b.t && h.prim < b.prim),
+        };
+        if better {
+            if let Some(data) = (self.accept)(&h) {
+                self.best = Some(PrimHit {
+                    t: h.t,
+                    prim: h.prim,
+                    data,
+                });
+            }
+        }
+        false
+    }
+}
+
+impl<const W: usize, F, G, D> WideLeaf<W> for MixedLeaf<'_, F, G, D>
+where
+    F: FnMut(&Ray, u32, f32, f32) -> Option<(f32, D)>,
+    G: FnMut(&Hit) -> Option<D>,
+{
+    #[inline(always)]
+    unsafe fn visit<K: Kernel<W>, S: TraversalStats, const NEG: bool>(
+        &mut self,
+        packets: &[TriPacket],
+        kr: &K::Ray,
+        rd: &RayData,
+        tfar: f32,
+        stats: &mut S,
+    ) -> Option<f32> {
+        let mut out = PacketHits {
+            t: [0.0; 4],
+            u: [0.0; 4],
+            v: [0.0; 4],
+        };
+        let mut tfar = tfar;
+        for p in packets {
+            stats.triangles(p.len());
+            // SAFETY: forwarded from the caller.
+            let (mut hits, mut fallback) =
+                unsafe { K::intersect_packet::<NEG>(p, kr, rd, tfar, &mut out) };
+            while hits != 0 {
+                let l = hits.trailing_zeros() as usize & 3;
+                hits &= hits - 1;
+                let h = Hit {
+                    t: out.t[l],
+                    prim: p.prims[l],
+                    u: out.u[l],
+                    v: out.v[l],
+                };
+                if self.triangle(h) {
+                    return None;
+                }
+            }
+            while fallback != 0 {
+                let l = fallback.trailing_zeros() as usize & 3;
+                fallback &= fallback - 1;
+                let tri = p.triangle(l);
+                if let Some(h) = intersect_triangle(&rd.w, &tri, self.ray.tmin, self.ray.tmax) {
+                    let h = Hit {
+                        t: h.t,
+                        prim: p.prims[l],
+                        u: h.u,
+                        v: h.v,
+                    };
+                    if self.triangle(h) {
+                        return None;
+                    }
+                }
+            }
+            for &prim in &p.prims {
+                if prim == u32::MAX || self.triangle_of[prim as usize] != u32::MAX {
+                    continue;
+                }
+                if self.any {
+                    if self.prims.any(self.ray, prim) {
+                        self.found = true;
+                        return None;
+                    }
+                    continue;
+                }
+                if let Some((t, d)) = self.prims.closest(self.ray, prim, self.best_t()) {
+                    offer(&mut self.best, t, prim, d);
+                }
+            }
+            if !self.any {
+                tfar = widen(self.best_t().min(rd.tmax));
+            }
+        }
+        Some(self.best_t())
     }
 }
 
@@ -429,6 +552,137 @@ impl<const W: usize> WideBvh<W> {
             any: true,
             found: false,
             best: None::<PrimHit<D>>,
+        };
+        run(self, backend, ray, false, stats, &mut leaf);
+        leaf.found
+    }
+
+    /// Collapses a binary BVH built over the boxes of triangles and user primitives together
+    /// (`BuildInput::from_boxes`, each triangle's box its bounds) into a `W`-wide tree whose
+    /// leaves hold the triangles' vertices (user primitives get NaN vertices): the tree of
+    /// [`WideBvh::closest_hit_mixed`] and [`WideBvh::any_hit_mixed`].
+    ///
+    /// # Panics
+    ///
+    /// If `prims.triangle_of` is not as long as `prims.boxes`, names a triangle outside
+    /// `prims.triangles`, or a leaf references a primitive outside `prims.boxes`.
+    pub fn from_mixed(bvh: &Bvh, prims: MixedPrims<'_>) -> Self {
+        assert_eq!(
+            prims.triangle_of.len(),
+            prims.boxes.len(),
+            "one entry per primitive"
+        );
+        collapse::collapse(bvh, Source::Mixed(prims))
+    }
+
+    /// Closest hit in a tree of triangles and user primitives ([`WideBvh::from_mixed`]):
+    /// triangles by the backend's packet test (the watertight test), each triangle
+    /// candidate that would change the answer (nearer than the best, or as near on a lower
+    /// index) passed to `accept`, which returns its data or `None` to reject it (a filter);
+    /// user primitives by `intersect` under the hit rule of [`crate::custom`] (with the same
+    /// contract). Ties: the lowest primitive index. Equal, bit for bit, to a loop over all
+    /// primitives in index order applying the watertight test and `accept` to triangles and
+    /// the hit rule to the others. Invalid rays miss.
+    ///
+    /// # Panics
+    ///
+    /// If `prims` is not the tree's (a leaf references a primitive outside it).
+    pub fn closest_hit_mixed<D, F, G, S>(
+        &self,
+        prims: MixedPrims<'_>,
+        ray: &Ray,
+        accept: G,
+        intersect: F,
+        stats: &mut S,
+    ) -> Option<PrimHit<D>>
+    where
+        F: FnMut(&Ray, u32, f32, f32) -> Option<(f32, D)>,
+        G: FnMut(&Hit) -> Option<D>,
+        S: TraversalStats,
+    {
+        self.closest_hit_mixed_with(self.backend, prims, ray, accept, intersect, stats)
+    }
+
+    /// [`WideBvh::closest_hit_mixed`] with the box and packet tests of a chosen backend
+    /// (every x86 backend uses the SSE2 tests here; all give the same result).
+    pub fn closest_hit_mixed_with<D, F, G, S>(
+        &self,
+        backend: Backend,
+        prims: MixedPrims<'_>,
+        ray: &Ray,
+        accept: G,
+        intersect: F,
+        stats: &mut S,
+    ) -> Option<PrimHit<D>>
+    where
+        F: FnMut(&Ray, u32, f32, f32) -> Option<(f32, D)>,
+        G: FnMut(&Hit) -> Option<D>,
+        S: TraversalStats,
+    {
+        let mut leaf = MixedLeaf {
+            prims: UserPrims {
+                boxes: prims.boxes,
+                intersect,
+            },
+            triangle_of: prims.triangle_of,
+            accept,
+            ray,
+            any: false,
+            found: false,
+            best: None,
+        };
+        run(self, backend, ray, true, stats, &mut leaf);
+        leaf.best
+    }
+
+    /// Any hit in a tree of triangles and user primitives: true when a triangle hit in `[tmin,
+    /// tmax]` is accepted by `accept`, or a user primitive has a hit under the hit rule.
+    ///
+    /// # Panics
+    ///
+    /// As [`WideBvh::closest_hit_mixed`].
+    pub fn any_hit_mixed<D, F, G, S>(
+        &self,
+        prims: MixedPrims<'_>,
+        ray: &Ray,
+        accept: G,
+        intersect: F,
+        stats: &mut S,
+    ) -> bool
+    where
+        F: FnMut(&Ray, u32, f32, f32) -> Option<(f32, D)>,
+        G: FnMut(&Hit) -> Option<D>,
+        S: TraversalStats,
+    {
+        self.any_hit_mixed_with(self.backend, prims, ray, accept, intersect, stats)
+    }
+
+    /// [`WideBvh::any_hit_mixed`] with the box and packet tests of a chosen backend.
+    pub fn any_hit_mixed_with<D, F, G, S>(
+        &self,
+        backend: Backend,
+        prims: MixedPrims<'_>,
+        ray: &Ray,
+        accept: G,
+        intersect: F,
+        stats: &mut S,
+    ) -> bool
+    where
+        F: FnMut(&Ray, u32, f32, f32) -> Option<(f32, D)>,
+        G: FnMut(&Hit) -> Option<D>,
+        S: TraversalStats,
+    {
+        let mut leaf = MixedLeaf {
+            prims: UserPrims {
+                boxes: prims.boxes,
+                intersect,
+            },
+            triangle_of: prims.triangle_of,
+            accept,
+            ray,
+            any: true,
+            found: false,
+            best: None,
         };
         run(self, backend, ray, false, stats, &mut leaf);
         leaf.found
