@@ -94,6 +94,37 @@ impl<const W: usize> BottomLevel for WideBvh<W> {
     }
 }
 
+/// A shared bottom-level tree: many [`InstanceSet`]s (or a renderer and a set) can hold the
+/// same tree without copying it.
+///
+/// ```
+/// use std::sync::Arc;
+/// use sahara_bvh::{Bvh, Node};
+/// use sahara_geom::{Ray, Triangle, Vec3A};
+/// use sahara_traverse::instance::BottomLevel;
+/// use sahara_traverse::Bvh8;
+///
+/// let tri = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+/// let tree = Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+/// let shared = Arc::new(Bvh8::from_bvh(&tree, &[tri]));
+/// let ray = Ray::new(Vec3A::new(0.25, 0.25, -1.0), Vec3A::Z, 0.0, 10.0);
+/// assert_eq!(BottomLevel::closest_hit(&shared, &ray).t, 1.0);
+/// assert_eq!(BottomLevel::bounds(&shared), tri.bounds());
+/// ```
+impl<B: BottomLevel + ?Sized> BottomLevel for std::sync::Arc<B> {
+    #[inline]
+    fn closest_hit(&self, ray: &Ray) -> Hit {
+        (**self).closest_hit(ray)
+    }
+    #[inline]
+    fn any_hit(&self, ray: &Ray) -> bool {
+        (**self).any_hit(ray)
+    }
+    fn bounds(&self) -> Aabb {
+        (**self).bounds()
+    }
+}
+
 /// One placed copy of a bottom-level tree.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Instance {
@@ -144,6 +175,15 @@ pub enum InstanceError {
     /// The top-level tree references an instance that does not exist, or misses one.
     #[error("the top-level tree does not reference each of the {0} instances")]
     TopLevelCoverage(usize),
+    /// An update ([`InstanceSet::set_transforms`], [`InstanceSet::set_mask`]) names an
+    /// instance that does not exist.
+    #[error("there is no instance {instance}: there are only {count}")]
+    UnknownInstance {
+        /// The instance named.
+        instance: usize,
+        /// How many instances there are.
+        count: usize,
+    },
 }
 
 /// A two-level scene: bottom-level trees, their instances and a top-level [`Bvh8`] over the
@@ -152,6 +192,7 @@ pub enum InstanceError {
 pub struct InstanceSet<B: BottomLevel = Bvh8> {
     blases: Vec<B>,
     instances: Vec<Instance>,
+    masks: Vec<u32>,
     inverse: Vec<Affine3A>,
     boxes: Vec<Aabb>,
     top: Bvh,
@@ -184,6 +225,50 @@ fn world_box(m: &Affine3A, local: &Aabb) -> Aabb {
     Aabb::new(b.min - pad, b.max + pad)
 }
 
+/// Checks instance `i` and computes its inverse transform and world box.
+fn place<B: BottomLevel>(
+    blases: &[B],
+    i: usize,
+    inst: &Instance,
+) -> Result<(Affine3A, Aabb), InstanceError> {
+    let Some(blas) = blases.get(inst.blas as usize) else {
+        return Err(InstanceError::UnknownBlas {
+            instance: i,
+            blas: inst.blas,
+            count: blases.len(),
+        });
+    };
+    let inv = inst.transform.inverse();
+    let b = world_box(&inst.transform, &blas.bounds());
+    let finite =
+        inst.transform.is_finite() && inv.is_finite() && b.min.is_finite() && b.max.is_finite();
+    if !finite {
+        return Err(InstanceError::BadTransform { instance: i });
+    }
+    Ok((inv, b))
+}
+
+/// Builds, checks and collapses the top-level tree over the world boxes.
+fn top_level(
+    boxes: &[Aabb],
+    build_top: impl FnOnce(&[Aabb]) -> Bvh,
+) -> Result<(Bvh, Bvh8), InstanceError> {
+    let top = build_top(boxes);
+    top.validate_structure()?;
+    let mut seen = vec![false; boxes.len()];
+    for &p in &top.prim_indices {
+        match seen.get_mut(p as usize) {
+            Some(s) => *s = true,
+            None => return Err(InstanceError::TopLevelCoverage(boxes.len())),
+        }
+    }
+    if seen.iter().any(|&s| !s) {
+        return Err(InstanceError::TopLevelCoverage(boxes.len()));
+    }
+    let top_wide = Bvh8::from_boxes(&top, boxes);
+    Ok((top, top_wide))
+}
+
 impl<B: BottomLevel> InstanceSet<B> {
     /// Places `instances` of the bottom-level trees `blases` and builds the top-level tree:
     /// `build_top(world_boxes)` returns a binary tree over the instances' world boxes (one
@@ -199,46 +284,118 @@ impl<B: BottomLevel> InstanceSet<B> {
         let mut inverse = Vec::with_capacity(instances.len());
         let mut boxes = Vec::with_capacity(instances.len());
         for (i, inst) in instances.iter().enumerate() {
-            let Some(blas) = blases.get(inst.blas as usize) else {
-                return Err(InstanceError::UnknownBlas {
-                    instance: i,
-                    blas: inst.blas,
-                    count: blases.len(),
-                });
-            };
-            let inv = inst.transform.inverse();
-            let b = world_box(&inst.transform, &blas.bounds());
-            let finite = inst.transform.is_finite()
-                && inv.is_finite()
-                && b.min.is_finite()
-                && b.max.is_finite();
-            if !finite {
-                return Err(InstanceError::BadTransform { instance: i });
-            }
+            let (inv, b) = place(&blases, i, inst)?;
             inverse.push(inv);
             boxes.push(b);
         }
-        let top = build_top(&boxes);
-        top.validate_structure()?;
-        let mut seen = vec![false; instances.len()];
-        for &p in &top.prim_indices {
-            match seen.get_mut(p as usize) {
-                Some(s) => *s = true,
-                None => return Err(InstanceError::TopLevelCoverage(instances.len())),
-            }
-        }
-        if seen.iter().any(|&s| !s) {
-            return Err(InstanceError::TopLevelCoverage(instances.len()));
-        }
-        let top_wide = Bvh8::from_boxes(&top, &boxes);
+        let (top, top_wide) = top_level(&boxes, build_top)?;
         Ok(Self {
             blases,
+            masks: vec![u32::MAX; instances.len()],
             instances,
             inverse,
             boxes,
             top,
             top_wide,
         })
+    }
+
+    /// Moves instances: each `(instance, transform)` of `updates` gives an instance its new
+    /// object-to-world transform (a later update of the same instance wins). Their inverses
+    /// and world boxes are recomputed, and the **top level only** is rebuilt by `build_top`
+    /// over all the world boxes, as in [`InstanceSet::new`]; the bottom-level trees are not
+    /// touched. With the same deterministic `build_top`, the result is the set
+    /// [`InstanceSet::new`] would build from the moved instances (the same top-level tree).
+    ///
+    /// Fails, leaving the set unchanged, with [`InstanceError::UnknownInstance`] for an
+    /// index out of range, [`InstanceError::BadTransform`] for a non-finite or singular
+    /// transform, or the errors of a broken top-level tree.
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+    /// use sahara_traverse::instance::{Instance, InstanceError, InstanceSet};
+    /// use sahara_traverse::{Bvh8, NoStats};
+    /// use glam::{Affine3A, Vec3};
+    ///
+    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0));
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false };
+    /// let mut set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
+    /// set.set_transforms(&[(0, Affine3A::from_translation(Vec3::new(0.0, 0.0, 4.0)))], one)?;
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// assert_eq!(set.closest_hit(&ray, &mut NoStats).unwrap().t, 4.0);
+    /// // A singular transform or a missing instance changes nothing.
+    /// assert!(set.set_transforms(&[(0, Affine3A::from_scale(Vec3::ZERO))], one).is_err());
+    /// assert_eq!(set.set_transforms(&[(1, Affine3A::IDENTITY)], one), Err(InstanceError::UnknownInstance { instance: 1, count: 1 }));
+    /// assert_eq!(set.closest_hit(&ray, &mut NoStats).unwrap().t, 4.0);
+    /// # Ok::<(), InstanceError>(())
+    /// ```
+    pub fn set_transforms(
+        &mut self,
+        updates: &[(usize, Affine3A)],
+        build_top: impl FnOnce(&[Aabb]) -> Bvh,
+    ) -> Result<(), InstanceError> {
+        let mut boxes = self.boxes.clone();
+        let mut placed = Vec::with_capacity(updates.len());
+        for &(i, transform) in updates {
+            let Some(old) = self.instances.get(i) else {
+                return Err(InstanceError::UnknownInstance {
+                    instance: i,
+                    count: self.instances.len(),
+                });
+            };
+            let inst = Instance {
+                blas: old.blas,
+                transform,
+            };
+            let (inv, b) = place(&self.blases, i, &inst)?;
+            boxes[i] = b;
+            placed.push((i, inst, inv));
+        }
+        let (top, top_wide) = top_level(&boxes, build_top)?;
+        for (i, inst, inv) in placed {
+            self.instances[i] = inst;
+            self.inverse[i] = inv;
+        }
+        self.boxes = boxes;
+        self.top = top;
+        self.top_wide = top_wide;
+        Ok(())
+    }
+
+    /// Sets instance `instance`'s 32-bit mask (every instance starts with all bits set): the
+    /// masked queries ([`InstanceSet::closest_hit_masked`], [`InstanceSet::any_hit_masked`])
+    /// skip an instance whose mask shares no bit with the ray's. Nothing is rebuilt. Fails
+    /// with [`InstanceError::UnknownInstance`] for an index out of range.
+    ///
+    /// ```
+    /// use sahara_bvh::Bvh;
+    /// use sahara_traverse::instance::{InstanceError, InstanceSet};
+    /// use sahara_traverse::Bvh8;
+    /// let mut set = InstanceSet::<Bvh8>::new(vec![], vec![], |_| Bvh::empty()).unwrap();
+    /// assert_eq!(set.set_mask(0, 1), Err(InstanceError::UnknownInstance { instance: 0, count: 0 }));
+    /// assert!(set.masks().is_empty());
+    /// ```
+    pub fn set_mask(&mut self, instance: usize, mask: u32) -> Result<(), InstanceError> {
+        let count = self.masks.len();
+        let slot = self
+            .masks
+            .get_mut(instance)
+            .ok_or(InstanceError::UnknownInstance { instance, count })?;
+        *slot = mask;
+        Ok(())
+    }
+
+    /// The instances' masks, in instance order (see [`InstanceSet::set_mask`]).
+    pub fn masks(&self) -> &[u32] {
+        &self.masks
+    }
+
+    /// The inverses of the instances' transforms (world to object), as every query uses
+    /// them (computed once by glam in `f32`).
+    pub fn inverse_transforms(&self) -> &[Affine3A] {
+        &self.inverse
     }
 
     /// The instances.
@@ -285,7 +442,8 @@ impl<B: BottomLevel> InstanceSet<B> {
     }
 
     /// Closest hit through the instances; `stats` counts the top level's work (nodes visited,
-    /// instances tested). Invalid rays miss.
+    /// instances tested). Invalid rays miss. Every instance is tested whatever its mask (as
+    /// [`InstanceSet::closest_hit_masked`] with the ray mask `u32::MAX` when no mask is zero).
     pub fn closest_hit<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> Option<InstanceHit> {
         let h = self.top_wide.closest_hit_custom(
             &self.boxes,
@@ -296,12 +454,62 @@ impl<B: BottomLevel> InstanceSet<B> {
         Some(to_instance_hit(h))
     }
 
+    /// [`InstanceSet::closest_hit`] over the instances whose mask shares a bit with `mask`
+    /// (`instance mask & mask != 0`); the others are skipped as if absent.
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+    /// use sahara_traverse::instance::{Instance, InstanceSet};
+    /// use sahara_traverse::{Bvh8, NoStats};
+    /// use glam::Affine3A;
+    ///
+    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false };
+    /// let mut set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
+    /// set.set_mask(0, 0b10).unwrap();
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// assert!(set.closest_hit_masked(&ray, 0b10, &mut NoStats).is_some());
+    /// assert!(set.closest_hit_masked(&ray, 0b01, &mut NoStats).is_none());
+    /// assert!(!set.any_hit_masked(&ray, 0b01, &mut NoStats));
+    /// ```
+    pub fn closest_hit_masked<S: TraversalStats>(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        stats: &mut S,
+    ) -> Option<InstanceHit> {
+        let h = self.top_wide.closest_hit_custom(
+            &self.boxes,
+            ray,
+            |r: &Ray, i, _tmin, tmax| {
+                if self.masks[i as usize] & mask == 0 {
+                    return None;
+                }
+                self.instance_closest(r, i, tmax)
+            },
+            stats,
+        )?;
+        Some(to_instance_hit(h))
+    }
+
     /// Any hit through the instances: true when some instance's bottom level reports a hit of
     /// the object-space ray and the instance's world box passes the culling box test (see the
-    /// [module documentation](self)). Invalid rays miss.
+    /// [module documentation](self)). Invalid rays miss. Masks are not looked at.
     pub fn any_hit<S: TraversalStats>(&self, ray: &Ray, stats: &mut S) -> bool {
         self.top_wide
             .any_hit_occluders(ray, |i| self.instance_any(ray, i), stats)
+    }
+
+    /// [`InstanceSet::any_hit`] over the instances whose mask shares a bit with `mask` (see
+    /// [`InstanceSet::closest_hit_masked`]).
+    pub fn any_hit_masked<S: TraversalStats>(&self, ray: &Ray, mask: u32, stats: &mut S) -> bool {
+        self.top_wide.any_hit_occluders(
+            ray,
+            |i| self.masks[i as usize] & mask != 0 && self.instance_any(ray, i),
+            stats,
+        )
     }
 
     /// The any-hit acceptance of instance `i`.
@@ -334,22 +542,64 @@ impl<B: BottomLevel> InstanceSet<B> {
         .map(to_instance_hit)
     }
 
+    /// The brute-force reference of [`InstanceSet::closest_hit_masked`]: the loop of
+    /// [`InstanceSet::brute_closest_hit`] over the instances whose mask shares a bit with
+    /// `mask` only.
+    pub fn brute_closest_hit_masked(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut closest: impl FnMut(u32, &Ray) -> Hit,
+    ) -> Option<InstanceHit> {
+        crate::custom::brute_closest_hit(&self.boxes, ray, |r: &Ray, i, _tmin, tmax| {
+            if self.masks[i as usize] & mask == 0 {
+                return None;
+            }
+            let h = closest(
+                self.instances[i as usize].blas,
+                &self.object_ray(i, r, tmax),
+            );
+            h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+        })
+        .map(to_instance_hit)
+    }
+
+    /// The brute-force reference of [`InstanceSet::any_hit_masked`].
+    pub fn brute_any_hit_masked(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        any: impl FnMut(u32, &Ray) -> bool,
+    ) -> bool {
+        self.brute_any(ray, Some(mask), any)
+    }
+
     /// The brute-force reference of [`InstanceSet::any_hit`], with `any(blas, object_ray)` the
     /// bottom-level any-hit query.
-    pub fn brute_any_hit(&self, ray: &Ray, mut any: impl FnMut(u32, &Ray) -> bool) -> bool {
+    pub fn brute_any_hit(&self, ray: &Ray, any: impl FnMut(u32, &Ray) -> bool) -> bool {
+        self.brute_any(ray, None, any)
+    }
+
+    fn brute_any(
+        &self,
+        ray: &Ray,
+        mask: Option<u32>,
+        mut any: impl FnMut(u32, &Ray) -> bool,
+    ) -> bool {
         if !ray.is_valid() {
             return false;
         }
         let (lo, hi) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
         (0..self.instances.len() as u32).any(|i| {
-            intersect_aabb(
-                ray.origin,
-                ray.inv_direction(),
-                lo,
-                hi,
-                &self.boxes[i as usize],
-            )
-            .is_some()
+            mask.is_none_or(|m| self.masks[i as usize] & m != 0)
+                && intersect_aabb(
+                    ray.origin,
+                    ray.inv_direction(),
+                    lo,
+                    hi,
+                    &self.boxes[i as usize],
+                )
+                .is_some()
                 && any(
                     self.instances[i as usize].blas,
                     &self.object_ray(i, ray, ray.tmax),
