@@ -29,7 +29,10 @@ pub enum Error {
     #[error("the built tree is invalid: {0}")]
     InvalidTree(#[from] ValidationError),
     /// [`Instances::build`](crate::Instances::build) refused a placement (a missing mesh, a
-    /// non-finite or singular transform).
+    /// non-finite or singular transform), or an update of
+    /// [`Instances::set_transform`](crate::Instances::set_transform) or
+    /// [`Instances::set_mask`](crate::Instances::set_mask) did (the same, or an instance index
+    /// out of range); the instance set is left unchanged.
     #[error(transparent)]
     Instance(#[from] sahara_traverse::instance::InstanceError),
     /// [`Accel::refit`](crate::Accel::refit) was given a triangle with a NaN or infinite
@@ -68,7 +71,7 @@ pub enum LoadError {
     #[error("not a sahara acceleration structure (bad magic)")]
     BadMagic,
     /// The file was written by another version of the format.
-    #[error("unsupported acceleration structure version {0} (this build reads version {version})", version = crate::file::VERSION)]
+    #[error("unsupported acceleration structure version {0} (this build reads version {version}, instance sets 1 to {instances})", version = crate::file::VERSION, instances = crate::file::INSTANCES_VERSION)]
     UnsupportedVersion(u32),
     /// The file ends before the data its header announces.
     #[error("truncated acceleration structure: {expected} bytes announced, {actual} present")]

@@ -27,7 +27,7 @@
 //! ```text
 //! offset  size   field
 //! 0       8      magic "SAHARINS"
-//! 8       4      version (u32; this is version 1)
+//! 8       4      version (u32; this is version 2, version 1 is still read)
 //! 12      4      quality code of the top level
 //! 16      4      c_t (f32 bits)
 //! 20      4      c_i (f32 bits)
@@ -38,7 +38,11 @@
 //! 56      ...    payload: m meshes, each a u64 length and a complete `SAHARACC` file;
 //!                then p placements of 52 bytes: mesh index (u32) and the transform's
 //!                12 f32 (the 3×3 matrix column by column, then the translation)
+//!                (the transforms as moved by `Instances::set_transform`);
+//!                then, since version 2, p masks (u32 each, in placement order)
 //! ```
+//!
+//! A version 1 file has no masks: every instance loads with all mask bits set.
 //!
 //! The top level is not stored: loading rebuilds it with the stored quality level's builder
 //! over the placements' world boxes, which gives the same tree (builders are deterministic).
@@ -106,7 +110,11 @@ fn u64_at(h: &[u8], o: usize) -> u64 {
 
 /// Reads a header of `N` bytes that starts with `magic` and this build's [`VERSION`] (bytes
 /// 8..12): a foreign, short or other-version header is a typed error.
-fn read_header<R: Read, const N: usize>(r: &mut R, magic: &[u8; 8]) -> Result<[u8; N], LoadError> {
+fn read_header<R: Read, const N: usize>(
+    r: &mut R,
+    magic: &[u8; 8],
+    versions: &[u32],
+) -> Result<[u8; N], LoadError> {
     let mut header = [0u8; N];
     let mut got = 0;
     while got < N {
@@ -127,7 +135,7 @@ fn read_header<R: Read, const N: usize>(r: &mut R, magic: &[u8; 8]) -> Result<[u
         });
     }
     let version = u32_at(&header, 8);
-    if version != VERSION {
+    if !versions.contains(&version) {
         return Err(LoadError::UnsupportedVersion(version));
     }
     Ok(header)
@@ -170,7 +178,7 @@ fn read_payload<R: Read>(
 }
 
 pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
-    let header: [u8; HEADER_LEN] = read_header(r, &MAGIC)?;
+    let header: [u8; HEADER_LEN] = read_header(r, &MAGIC, &[VERSION])?;
     let u32_at = |o: usize| u32_at(&header, o);
     let u64_at = |o: usize| u64_at(&header, o);
     let (n_tris, tree_len, sum) = (u64_at(24), u64_at(32), u64_at(40));
@@ -215,6 +223,12 @@ pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
 
 /// The first eight bytes of a saved instance set.
 pub const INSTANCES_MAGIC: [u8; 8] = *b"SAHARINS";
+/// The version of the instance-set format this build writes (it reads this one and 1).
+///
+/// ```
+/// assert_eq!(sahara::file::INSTANCES_VERSION, 2);
+/// ```
+pub const INSTANCES_VERSION: u32 = 2;
 const INSTANCES_HEADER_LEN: usize = 56;
 const PLACEMENT_BYTES: usize = 52;
 
@@ -232,10 +246,13 @@ pub(crate) fn save_instances<W: Write>(set: &Instances, w: &mut W) -> std::io::R
             payload.extend_from_slice(&x.to_le_bytes());
         }
     }
+    for &mask in set.set().masks() {
+        payload.extend_from_slice(&mask.to_le_bytes());
+    }
     let options = set.options();
     let mut header = Vec::with_capacity(INSTANCES_HEADER_LEN);
     header.extend_from_slice(&INSTANCES_MAGIC);
-    header.extend_from_slice(&VERSION.to_le_bytes());
+    header.extend_from_slice(&INSTANCES_VERSION.to_le_bytes());
     header.extend_from_slice(&options.quality.code().to_le_bytes());
     header.extend_from_slice(&options.cost.traversal.to_le_bytes());
     header.extend_from_slice(&options.cost.intersection.to_le_bytes());
@@ -249,7 +266,12 @@ pub(crate) fn save_instances<W: Write>(set: &Instances, w: &mut W) -> std::io::R
 }
 
 pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError> {
-    let header: [u8; INSTANCES_HEADER_LEN] = read_header(r, &INSTANCES_MAGIC)?;
+    let header: [u8; INSTANCES_HEADER_LEN] = read_header(r, &INSTANCES_MAGIC, &[1, 2])?;
+    let per_placement = if u32_at(&header, 8) >= 2 {
+        PLACEMENT_BYTES + 4
+    } else {
+        PLACEMENT_BYTES
+    };
     let u32_at = |o: usize| u32_at(&header, o);
     let u64_at = |o: usize| u64_at(&header, o);
     let (n_meshes, n_placements, expected, sum) = (u64_at(24), u64_at(32), u64_at(40), u64_at(48));
@@ -285,7 +307,7 @@ pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError>
         meshes.push(load(&mut bytes)?);
         rest = tail;
     }
-    let placement_bytes = n_placements.checked_mul(PLACEMENT_BYTES as u64);
+    let placement_bytes = n_placements.checked_mul(per_placement as u64);
     if placement_bytes != Some(rest.len() as u64) {
         return Err(LoadError::InvalidInstances(format!(
             "{} placements announced, {} bytes left for them",
@@ -293,6 +315,7 @@ pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError>
             rest.len()
         )));
     }
+    let (rest, mask_bytes) = rest.split_at(n_placements as usize * PLACEMENT_BYTES);
     let placements: Vec<(usize, Affine3A)> = rest
         .chunks_exact(PLACEMENT_BYTES)
         .map(|c| {
@@ -310,8 +333,14 @@ pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError>
         cost,
         threads: None,
     };
-    Instances::build(meshes, &placements, options).map_err(|e| match e {
+    let mut set = Instances::build(meshes, &placements, options).map_err(|e| match e {
         Error::Build(_) => LoadError::InvalidCostModel,
         other => LoadError::InvalidInstances(other.to_string()),
-    })
+    })?;
+    for (i, m) in mask_bytes.chunks_exact(4).enumerate() {
+        let mask = u32::from_le_bytes([m[0], m[1], m[2], m[3]]);
+        set.set_mask(i, mask)
+            .map_err(|e| LoadError::InvalidInstances(e.to_string()))?;
+    }
+    Ok(set)
 }

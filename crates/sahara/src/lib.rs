@@ -30,9 +30,13 @@
 //! an invalid ray (NaN or infinite origin, zero or non-finite direction, `tmin > tmax`; see
 //! [`Ray::is_valid`]) misses.
 //!
-//! * [`Instances`] places many copies of a few [`Accel`]s with affine transforms (a two-level
-//!   structure) and traces them as one scene; [`Accel::refit`] moves the vertices and updates
-//!   the bounds of the tree and of its layout without rebuilding.
+//! * [`Instances`] places many copies of a few shared [`Accel`]s (`Arc<Accel>`) with affine
+//!   transforms (a two-level structure) and traces them as one scene:
+//!   [`Instances::set_transform`] moves an instance by rebuilding the top level only,
+//!   [`Instances::set_mask`] gives it a 32-bit mask that the queries' ray mask tests, and an
+//!   [`InstanceHit`] gives the instance, mesh, triangle, `t`, `u`, `v` and the world-space
+//!   normal; [`Accel::refit`] moves the vertices and updates the bounds of the tree and of its
+//!   layout without rebuilding.
 //!
 //! * [`Scene`] ([`SceneBuilder`]) holds many geometries under one BVH: triangle meshes and
 //!   user primitives (boxes plus an intersection callback), each with a [`GeometryId`] and a
@@ -40,7 +44,8 @@
 //!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal).
 //!
 //! **Not here yet.** Saving a [`Scene`] (user callbacks cannot be stored;
-//! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes. The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes (instances
+//! place [`Accel`]s of triangles only), any-hit filters on instances. The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example

@@ -3,7 +3,7 @@
 //! for refit), bad input is a typed error that leaves the structure unchanged.
 
 use sahara::sahara_traverse::brute;
-use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A};
+use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::rays::segments_in;
 use sahara_fixtures::soups::mixed_soup;
@@ -52,14 +52,24 @@ fn instances_equal_the_two_level_brute_force() {
                 .flat_map(|b| [b.min, b.max]),
         );
         let rays = rays(&world, 3_000, 11);
-        let got = scene.closest_hits(&rays);
-        let got_any = scene.any_hits(&rays);
+        let got = scene.closest_hits(&rays, ALL_MASK);
+        let got_any = scene.any_hits(&rays, ALL_MASK);
         let mut hits = 0;
         for (i, r) in rays.iter().enumerate() {
             let want = scene.set().brute_closest_hit(r, |blas, o| {
                 brute::closest_hit(meshes[blas as usize].triangles(), o)
             });
-            assert_eq!(got[i], want, "{quality:?}: ray {i}");
+            let g = got[i].map(|h| (h.t, h.instance, h.prim, h.u, h.v));
+            assert_eq!(
+                g,
+                want.map(|h| (h.t, h.instance, h.prim, h.u, h.v)),
+                "{quality:?}: ray {i}"
+            );
+            assert_eq!(
+                got[i],
+                scene.brute_closest_hit(r, ALL_MASK),
+                "{quality:?}: ray {i}"
+            );
             let want_any = scene.set().brute_any_hit(r, |blas, o| {
                 brute::any_hit(meshes[blas as usize].triangles(), o)
             });
@@ -88,8 +98,8 @@ fn bad_placements_are_typed_errors() {
     // No placement: every ray misses.
     let empty = Instances::build(Vec::new(), &[], Quality::Fast).unwrap();
     let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
-    assert_eq!(empty.closest_hit(&ray), None);
-    assert!(!empty.any_hit(&ray));
+    assert_eq!(empty.closest_hit(&ray, ALL_MASK), None);
+    assert!(!empty.any_hit(&ray, ALL_MASK));
 }
 
 /// Every vertex moved by a smooth field plus jitter (triangles stay triangles).
@@ -204,7 +214,10 @@ fn instance_sets_save_and_load() {
             .flat_map(|b| [b.min, b.max]),
     );
     let rays = rays(&world, 500, 3);
-    assert_eq!(back.closest_hits(&rays), scene.closest_hits(&rays));
+    assert_eq!(
+        back.closest_hits(&rays, ALL_MASK),
+        scene.closest_hits(&rays, ALL_MASK)
+    );
     // Every truncation and every flip of one of three bits per byte is a typed error.
     for n in 0..bytes.len() {
         assert!(
