@@ -154,36 +154,13 @@ impl<const W: usize, G: FnMut(&Hit) -> bool> WideLeaf<W> for FilterLeaf<'_, G> {
         for p in packets {
             stats.triangles(p.len());
             // SAFETY: forwarded from the caller.
-            let (mut hits, mut fallback) =
-                unsafe { K::intersect_packet::<NEG>(p, kr, rd, tfar, &mut out) };
-            while hits != 0 {
-                let l = hits.trailing_zeros() as usize & 3;
-                hits &= hits - 1;
-                let h = Hit {
-                    t: out.t[l],
-                    prim: p.prims[l],
-                    u: out.u[l],
-                    v: out.v[l],
-                };
-                if self.candidate(h) {
-                    return None;
-                }
-            }
-            while fallback != 0 {
-                let l = fallback.trailing_zeros() as usize & 3;
-                fallback &= fallback - 1;
-                let tri = p.triangle(l);
-                if let Some(h) = intersect_triangle(&rd.w, &tri, self.ray.tmin, self.ray.tmax) {
-                    let h = Hit {
-                        t: h.t,
-                        prim: p.prims[l],
-                        u: h.u,
-                        v: h.v,
-                    };
-                    if self.candidate(h) {
-                        return None;
-                    }
-                }
+            let stopped = unsafe {
+                packet_candidates::<W, K, NEG>(p, kr, rd, self.ray, tfar, &mut out, |h| {
+                    self.candidate(h)
+                })
+            };
+            if stopped {
+                return None;
             }
             if !self.any {
                 tfar = widen(self.best.t.min(rd.tmax));
@@ -191,6 +168,59 @@ impl<const W: usize, G: FnMut(&Hit) -> bool> WideLeaf<W> for FilterLeaf<'_, G> {
         }
         Some(self.best.t)
     }
+}
+
+/// Every triangle candidate of one packet, offered to `offer` in lane order: first the lanes
+/// the backend's packet test hit, then the lanes it left to the scalar watertight test (see
+/// `Kernel::intersect_packet`). Returns true as soon as `offer` does (an any-hit query is
+/// done). The filtered and the mixed leaves share it, so both see the candidates of the plain
+/// kernels in the same order.
+///
+/// # Safety
+/// The kernel's CPU features must be present.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn packet_candidates<const W: usize, K: Kernel<W>, const NEG: bool>(
+    p: &TriPacket,
+    kr: &K::Ray,
+    rd: &RayData,
+    ray: &Ray,
+    tfar: f32,
+    out: &mut PacketHits,
+    mut offer: impl FnMut(Hit) -> bool,
+) -> bool {
+    // SAFETY: forwarded from the caller.
+    let (mut hits, mut fallback) = unsafe { K::intersect_packet::<NEG>(p, kr, rd, tfar, out) };
+    while hits != 0 {
+        let l = hits.trailing_zeros() as usize & 3;
+        hits &= hits - 1;
+        let h = Hit {
+            t: out.t[l],
+            prim: p.prims[l],
+            u: out.u[l],
+            v: out.v[l],
+        };
+        if offer(h) {
+            return true;
+        }
+    }
+    while fallback != 0 {
+        let l = fallback.trailing_zeros() as usize & 3;
+        fallback &= fallback - 1;
+        let tri = p.triangle(l);
+        if let Some(h) = intersect_triangle(&rd.w, &tri, ray.tmin, ray.tmax) {
+            let h = Hit {
+                t: h.t,
+                prim: p.prims[l],
+                u: h.u,
+                v: h.v,
+            };
+            if offer(h) {
+                return true;
+            }
+        }
+    }
+    false
 }
 
 /// Triangles and user primitives in one tree: the backend's packet test on the triangle lanes
@@ -262,36 +292,13 @@ where
         for p in packets {
             stats.triangles(p.len());
             // SAFETY: forwarded from the caller.
-            let (mut hits, mut fallback) =
-                unsafe { K::intersect_packet::<NEG>(p, kr, rd, tfar, &mut out) };
-            while hits != 0 {
-                let l = hits.trailing_zeros() as usize & 3;
-                hits &= hits - 1;
-                let h = Hit {
-                    t: out.t[l],
-                    prim: p.prims[l],
-                    u: out.u[l],
-                    v: out.v[l],
-                };
-                if self.triangle(h) {
-                    return None;
-                }
-            }
-            while fallback != 0 {
-                let l = fallback.trailing_zeros() as usize & 3;
-                fallback &= fallback - 1;
-                let tri = p.triangle(l);
-                if let Some(h) = intersect_triangle(&rd.w, &tri, self.ray.tmin, self.ray.tmax) {
-                    let h = Hit {
-                        t: h.t,
-                        prim: p.prims[l],
-                        u: h.u,
-                        v: h.v,
-                    };
-                    if self.triangle(h) {
-                        return None;
-                    }
-                }
+            let stopped = unsafe {
+                packet_candidates::<W, K, NEG>(p, kr, rd, self.ray, tfar, &mut out, |h| {
+                    self.triangle(h)
+                })
+            };
+            if stopped {
+                return None;
             }
             for &prim in &p.prims {
                 if prim == u32::MAX || self.triangle_of[prim as usize] != u32::MAX {
