@@ -926,11 +926,7 @@ impl Scene {
         } else {
             self.wide.closest_hit_filtered(
                 ray,
-                |h| {
-                    let g = geometry_of(&self.geometries, h.prim);
-                    self.geometries[g].mask & mask != 0
-                        && filter.as_mut().is_none_or(|f| f(&self.triangle_hit(g, h)))
-                },
+                |h| self.accepts(h, mask, &mut filter),
                 &mut NoStats,
             )
         };
@@ -965,15 +961,23 @@ impl Scene {
         if pass == Pass::All && filter.is_none() {
             return self.wide.any_hit(ray, &mut NoStats);
         }
-        self.wide.any_hit_filtered(
-            ray,
-            |h| {
-                let g = geometry_of(&self.geometries, h.prim);
-                self.geometries[g].mask & mask != 0
-                    && filter.as_mut().is_none_or(|f| f(&self.triangle_hit(g, h)))
-            },
-            &mut NoStats,
-        )
+        self.wide
+            .any_hit_filtered(ray, |h| self.accepts(h, mask, &mut filter), &mut NoStats)
+    }
+
+    /// Whether a triangle candidate of the triangles-only tree counts: its geometry's mask
+    /// meets the ray's, and the filter, if any, accepts it (the rule of the closest and the
+    /// any-hit queries alike).
+    #[inline]
+    fn accepts(
+        &self,
+        h: &sahara_traverse::Hit,
+        mask: u32,
+        filter: &mut Option<&mut dyn FnMut(&SceneHit) -> bool>,
+    ) -> bool {
+        let g = geometry_of(&self.geometries, h.prim);
+        self.geometries[g].mask & mask != 0
+            && filter.as_mut().is_none_or(|f| f(&self.triangle_hit(g, h)))
     }
 
     /// The closest hit in `[ray.tmin, ray.tmax]` on the geometries whose mask meets `mask`
