@@ -54,6 +54,7 @@ pub mod reinsert;
 pub mod rules;
 pub mod sbvh;
 pub mod simd;
+pub mod spatial_binned;
 pub mod split;
 pub mod sweep;
 pub mod topdown;

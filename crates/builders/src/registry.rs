@@ -13,6 +13,7 @@ use crate::ploc::{PlocBuilder, PlocConfig};
 use crate::popov::{PopovBuilder, PopovConfig};
 use crate::reinsert::{Reinsert, ReinsertConfig};
 use crate::sbvh::{SbvhBuilder, SbvhConfig};
+use crate::spatial_binned::{SpatialBinnedBuilder, SpatialBinnedConfig};
 use crate::sweep::{SweepBuilder, SweepConfig};
 use crate::tsah::{TsahBuilder, TsahConfig};
 use crate::tsah_spatial::{TsahSpatialBuilder, TsahSpatialConfig};
@@ -150,6 +151,16 @@ fn built_in() -> Vec<Entry> {
                 "SBVH at Embree HIGH's pace: 32-bin object and spatial splits, spatial splits \
                       only where the object split's sides overlap by 20% of their areas",
                 || Box::new(SbvhBuilder::named("sbvh-fast", SbvhConfig::FAST_GATED)),
+            )
+        },
+        Entry {
+            spatial: true,
+            ..preset(
+                "spatial-binned",
+                "binned SAH with spatial splits, in place (the design of Embree's spatial \
+                 builder): 32 object bins, 16 estimated spatial bins where the object split's \
+                 sides overlap, 30% extra references",
+                || Box::new(SpatialBinnedBuilder::new(SpatialBinnedConfig::DEFAULT)),
             )
         },
         // The temporary-subtree builders of Wodniok & Goesele (`tsah`).
