@@ -18,12 +18,20 @@ use sahara_metrics::CostModel;
 /// |---|---|---:|---|
 /// | [`Fast`](Quality::Fast) | `binned` (binned SAH, Wald 2007) | 0.88× | 0.985 / 0.988 / 0.987 |
 /// | [`Medium`](Quality::Medium) | `sweep` (full-sweep SAH) | 1× | 1 / 1 / 1 |
-/// | [`High`](Quality::High) | `sbvh` (spatial splits, Stich et al. 2009) | 14.8× | 1.166 / 1.160 / 1.134 |
+/// | [`High`](Quality::High) | `spatial-binned` (binned SAH with spatial splits, in place) | 1.9× | 1.083 / 1.083 / 1.074 (bvh8) |
 /// | [`Best`](Quality::Best) | `tsah-sbvh` (temporary-subtree SAH with spatial splits) | 142× | 1.230 / 1.209 / – |
 ///
+/// `High` was `sbvh` (14.8× the build time, 1.166 / 1.160 / 1.134) until 2026-12-07, when the
+/// in-place spatial-split builder replaced it: on the ten scenes in one run over the 8-wide
+/// layout, `spatial-binned` does 7–8% less work than `Medium` where `sbvh` does 12–14% less,
+/// at an eighth of `sbvh`'s build time (1.9× `Medium`'s) and below Embree HIGH's (`docs/builders-classic.md`,
+/// "Spatial splits in place"), so a renderer can rebuild at `High`; `sbvh` stays registered
+/// for trees built once.
+///
 /// For scale, on two Zen 4 cores: sponza (66 450 triangles) builds in 29 ms (`Fast`), 31 ms
-/// (`Medium`), 534 ms (`High`) and 4.7 s (`Best`); the Stanford dragon (871 414 triangles)
-/// in 0.45 s, 0.64 s, 4.0 s and about 70 s.
+/// (`Medium`), 534 ms (`sbvh`) and 4.7 s (`Best`); the Stanford dragon (871 414 triangles)
+/// in 0.45 s, 0.64 s, 4.0 s and about 70 s. `High`'s `spatial-binned`, on two loaded Xeon
+/// cores in the run that gave `sbvh` 798 ms and 17 s: 108 ms and 2.6 s.
 ///
 /// The tree of a level depends on the triangles and the cost model only: it is bit-identical
 /// whatever the number of threads.
@@ -34,13 +42,15 @@ pub enum Quality {
     /// Full-sweep SAH: the classic object-split tree. The default.
     #[default]
     Medium,
-    /// SBVH: spatial splits cut large and long triangles; 13–17% less work per ray than
-    /// [`Quality::Medium`] for 15× its build time. Triangles may be referenced by several
-    /// leaves.
+    /// Spatial splits (in place, with a 30% replication budget): cuts large and long
+    /// triangles; about 8% less work per ray than [`Quality::Medium`] (up to 30% on scenes of
+    /// long thin triangles) for 1.9× its build time, faster than Embree's spatial-split
+    /// builder. Triangles may be referenced by several leaves.
     High,
-    /// The temporary-subtree SAH builder with spatial splits: another 4–5% less work than
-    /// [`Quality::High`], for about 10× its build time. For scenes built once and traced
-    /// for long (cache the result with [`Accel::save`](crate::Accel::save)).
+    /// The temporary-subtree SAH builder with spatial splits: 4–5% less work than `sbvh`
+    /// (about 10% less than [`Quality::High`]), for about 10× `sbvh`'s build time. For
+    /// scenes built once and traced for long (cache the result with
+    /// [`Accel::save`](crate::Accel::save)).
     Best,
 }
 
@@ -53,7 +63,7 @@ impl Quality {
         match self {
             Quality::Fast => "binned",
             Quality::Medium => "sweep",
-            Quality::High => "sbvh",
+            Quality::High => "spatial-binned",
             Quality::Best => "tsah-sbvh",
         }
     }
