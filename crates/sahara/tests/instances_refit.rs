@@ -6,7 +6,7 @@ use sahara::sahara_traverse::brute;
 use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::rays::segments_in;
-use sahara_fixtures::soups::mixed_soup;
+use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::Aabb;
 
@@ -111,22 +111,6 @@ fn moved(tris: &[Triangle], amount: f32, seed: u64) -> Vec<Triangle> {
     };
     tris.iter()
         .map(|t| Triangle::new(f(t.v[0]), f(t.v[1]), f(t.v[2])))
-        .collect()
-}
-
-/// Every triangle moved rigidly by its own random offset of up to `amount` per axis (large
-/// amounts take triangles out of their references' split regions).
-fn exploded(tris: &[Triangle], amount: f32, seed: u64) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(seed, 4);
-    tris.iter()
-        .map(|t| {
-            let d = Vec3A::new(
-                rng.range_f32(-amount, amount),
-                rng.range_f32(-amount, amount),
-                rng.range_f32(-amount, amount),
-            );
-            Triangle::new(t.v[0] + d, t.v[1] + d, t.v[2] + d)
-        })
         .collect()
 }
 

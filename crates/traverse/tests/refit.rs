@@ -9,7 +9,7 @@ use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::{Bvh, RefitError};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::rays::point_in;
-use sahara_fixtures::soups::mixed_soup;
+use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{brute, custom, scalar, Backend, Bvh4, Bvh8, Hit, NoStats, WideBvh};
 
@@ -143,21 +143,6 @@ fn spatial_builders() -> Vec<&'static str> {
         .collect()
 }
 
-/// Every triangle moved rigidly by its own random offset of up to `amp` per axis.
-fn explode(tris: &[Triangle], amp: f32, seed: u64) -> Vec<Triangle> {
-    let mut rng = Pcg32::new(seed, 9);
-    tris.iter()
-        .map(|t| {
-            let d = Vec3A::new(
-                rng.range_f32(-amp, amp),
-                rng.range_f32(-amp, amp),
-                rng.range_f32(-amp, amp),
-            );
-            Triangle::new(t.v[0] + d, t.v[1] + d, t.v[2] + d)
-        })
-        .collect()
-}
-
 #[test]
 fn refit_of_unchanged_triangles_keeps_every_spatial_builders_clipped_boxes() {
     let tris = mixed_soup(1_500, 4);
@@ -206,7 +191,7 @@ fn spatial_split_trees_trace_like_brute_force_after_large_motion() {
             let moved = if frame == 1 {
                 jitter(&tris, amp, frame)
             } else {
-                explode(&tris, amp, frame)
+                exploded(&tris, amp, frame)
             };
             b2.refit_triangles(&moved).unwrap();
             b2.validate(&moved).unwrap();
