@@ -344,6 +344,7 @@ fn collapse(
         nodes,
         prim_indices: prims,
         spatial_splits: false,
+        ref_cuts: None,
     }
 }
 

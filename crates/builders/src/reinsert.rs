@@ -790,6 +790,8 @@ impl Tree {
     fn to_bvh(&self, input: &Bvh) -> Bvh {
         let mut nodes = Vec::with_capacity(input.nodes.len());
         let mut prims = Vec::with_capacity(input.prim_indices.len());
+        // The cut records follow their references.
+        let mut cuts = input.ref_cuts.as_ref().map(|_| sahara_bvh::RefCuts::new());
         let mut stack = vec![(self.root, NONE)];
         while let Some((v, patch)) = stack.pop() {
             let idx = nodes.len() as u32;
@@ -801,6 +803,12 @@ impl Tree {
                 let leaf = &input.nodes[v as usize];
                 nodes.push(Node::leaf(&leaf.bounds(), prims.len() as u32, leaf.count));
                 prims.extend_from_slice(input.leaf_prims(leaf));
+                if let (Some(out), Some(from)) = (&mut cuts, &input.ref_cuts) {
+                    let first = leaf.index as usize;
+                    for slot in first..first + leaf.count as usize {
+                        out.push(from.get(slot));
+                    }
+                }
             } else {
                 nodes.push(Node::inner(&self.boxes[v as usize], 0));
                 stack.push((self.right[v as usize], idx));
@@ -811,6 +819,8 @@ impl Tree {
             nodes,
             prim_indices: prims,
             spatial_splits: input.spatial_splits,
+            // Reinsertion recomputed the inner boxes as unions of their children.
+            ref_cuts: cuts.map(sahara_bvh::RefCuts::without_depths),
         }
     }
 }

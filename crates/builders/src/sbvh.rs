@@ -49,6 +49,7 @@ pub use crate::rules::sbvh::{ObjectSplitMethod, SbvhConfig};
 
 use crate::cost_only;
 use crate::rules::sbvh::{initial_refs, Ctx, SbvhRule, SbvhTask};
+use crate::split::spatial::CutLog;
 use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 
@@ -66,7 +67,8 @@ impl Strategy for SbvhConfig {
 
     fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
         let refs = initial_refs(input, None);
-        let ctx = Ctx::new(input, *self, &refs);
+        let log = CutLog::default();
+        let ctx = Ctx::new(input, *self, &refs).logging(&log);
         let root = SbvhTask {
             refs,
             depth: 0,

@@ -79,7 +79,7 @@
 
 use std::sync::Mutex;
 
-use sahara_bvh::{Bvh, Node};
+use sahara_bvh::{Bvh, Node, RefCuts};
 use sahara_geom::Aabb;
 
 /// What [`Rule::split`] decided for a node.
@@ -148,6 +148,18 @@ pub trait Rule: Sync {
     /// leaf.
     fn leaf_refs(&self, task: &Self::Task, out: &mut Vec<u32>);
 
+    /// For rules that cut references (spatial splits): appends one value per reference of the
+    /// leaf, in the order of [`leaf_refs`](Self::leaf_refs), that [`ref_cuts`](Self::ref_cuts)
+    /// turns into the tree's cut records (the SBVH rules append each reference's last entry
+    /// in their [`CutLog`](crate::split::spatial::CutLog)). Default: nothing.
+    fn leaf_cuts(&self, _task: &Self::Task, _out: &mut Vec<u32>) {}
+
+    /// The tree's cut records ([`Bvh::ref_cuts`]) from the values [`leaf_cuts`](Self::leaf_cuts)
+    /// appended for all references, in reference order. Default: `None` (no records).
+    fn ref_cuts(&self, _heads: &[u32]) -> Option<RefCuts> {
+        None
+    }
+
     /// Children with more references than this are built by other rayon workers; smaller
     /// subtrees are built serially. It changes the speed, never the tree. Default 4096.
     fn parallel_threshold(&self) -> usize {
@@ -167,6 +179,8 @@ const NONE: usize = usize::MAX;
 struct Fragment {
     nodes: Vec<Node>,
     prims: Vec<u32>,
+    /// [`Rule::leaf_cuts`] of the references (empty for rules that record none).
+    heads: Vec<u32>,
 }
 
 struct Shared<'r, R> {
@@ -194,6 +208,7 @@ pub fn build<R: Rule>(rule: &R, root: R::Task, spatial_splits: bool) -> Bvh {
         let mut f = Fragment::default();
         serial(rule, root, &mut f, &mut R::Scratch::default());
         return Bvh {
+            ref_cuts: cut_records(rule, &f.heads, f.prims.len()),
             nodes: f.nodes,
             prim_indices: f.prims,
             spatial_splits,
@@ -211,7 +226,14 @@ pub fn build<R: Rule>(rule: &R, root: R::Task, spatial_splits: bool) -> Bvh {
         .into_iter()
         .map(|f| f.expect("every fragment is built"))
         .collect();
-    stitch(frags, spatial_splits)
+    stitch(rule, frags, spatial_splits)
+}
+
+/// The rule's cut records for `refs` references, when it recorded one value per reference.
+fn cut_records<R: Rule>(rule: &R, heads: &[u32], refs: usize) -> Option<RefCuts> {
+    (heads.len() == refs)
+        .then(|| rule.ref_cuts(heads))
+        .flatten()
 }
 
 /// Builds the subtree of `task` into fragment `slot` (and the fragments it spawns).
@@ -280,6 +302,7 @@ fn placeholder(slot: u32) -> Node {
 fn push_leaf<R: Rule>(rule: &R, frag: &mut Fragment, bounds: &Aabb, task: &R::Task) {
     let first = frag.prims.len();
     rule.leaf_refs(task, &mut frag.prims);
+    rule.leaf_cuts(task, &mut frag.heads);
     let count = frag.prims.len() - first;
     debug_assert!(count > 0, "a leaf without references");
     frag.nodes
@@ -311,7 +334,7 @@ fn serial<R: Rule>(rule: &R, task: R::Task, frag: &mut Fragment, scratch: &mut R
 }
 
 /// Joins the fragments into one depth-first layout, starting from fragment 0.
-fn stitch(frags: Vec<Fragment>, spatial_splits: bool) -> Bvh {
+fn stitch<R: Rule>(rule: &R, frags: Vec<Fragment>, spatial_splits: bool) -> Bvh {
     let n_nodes = frags
         .iter()
         .map(|f| f.nodes.iter().filter(|n| n.count != PLACEHOLDER).count())
@@ -319,6 +342,7 @@ fn stitch(frags: Vec<Fragment>, spatial_splits: bool) -> Bvh {
     let n_prims = frags.iter().map(|f| f.prims.len()).sum();
     let mut nodes: Vec<Node> = Vec::with_capacity(n_nodes);
     let mut prims: Vec<u32> = Vec::with_capacity(n_prims);
+    let mut heads: Vec<u32> = Vec::new();
     enum Item {
         Emit(u32),
         Right(usize, u32),
@@ -349,8 +373,10 @@ fn stitch(frags: Vec<Fragment>, spatial_splits: bool) -> Bvh {
             n
         }));
         prims.extend_from_slice(&f.prims);
+        heads.extend_from_slice(&f.heads);
     }
     Bvh {
+        ref_cuts: cut_records(rule, &heads, prims.len()),
         nodes,
         prim_indices: prims,
         spatial_splits,

@@ -115,6 +115,7 @@ fn improves_a_chain_identically_on_any_thread_count() {
         nodes,
         prim_indices: (0..n as u32).collect(),
         spatial_splits: false,
+        ref_cuts: None,
     };
     chain.validate(&tris).unwrap();
     let run = |threads| {

@@ -3,27 +3,39 @@
 //! ```text
 //! offset  size  field
 //! 0       8     magic "SAHARBVH"
-//! 8       4     version (u32, little endian)
-//! 12      4     flags (bit 0: spatial splits)
+//! 8       4     version (u32, little endian): 1, or 2 with cut records
+//! 12      4     flags (bit 0: spatial splits; bit 1, version 2 only: cut records follow)
 //! 16      8     node count (u64)
 //! 24      8     reference count (u64)
 //! 32      8     FNV-1a 64 checksum of everything after the header
-//! 40      32·n  nodes (Node, little endian)
+//! 40      8     version 2 only: cut count c (u64)
+//! ...     32·n  nodes (Node, little endian)
 //! ...     4·r   references (u32)
+//! ...     4·(r+1) version 2 with bit 1 only: start of each reference's cuts, then the end
+//! ...     8·c   version 2 with bit 1 only: cuts (position's bits, axis | keep << 2)
 //! ```
+//!
+//! A tree without cut records ([`Bvh::ref_cuts`]) is written as version 1, byte for byte as
+//! before version 2 existed; a tree with them as version 2. Both versions load; a version-1
+//! file gives a tree without cut records, which refits with whole triangle boxes.
 //!
 //! Loading reads the header first and never allocates more than the bytes actually present;
 //! a truncated, oversized or corrupted file is a [`LoadError`], and the loaded tree passes
 //! [`Bvh::validate_structure`] so traversing it cannot read out of bounds.
 
-use crate::{Bvh, Node, ValidationError};
+use crate::{Bvh, Cut, Node, RefCuts, ValidationError};
 use std::io::{Read, Write};
 
 /// First eight bytes of every BVH file.
 pub const FILE_MAGIC: [u8; 8] = *b"SAHARBVH";
-/// Current version of the file format.
-pub const FILE_VERSION: u32 = 1;
+/// Current version of the file format (trees without cut records are still written as
+/// version 1).
+pub const FILE_VERSION: u32 = 2;
 const HEADER_LEN: usize = 40;
+/// Flag bit 0: spatial splits.
+const FLAG_SPATIAL: u32 = 1;
+/// Flag bit 1: cut records follow the references (version 2).
+const FLAG_CUTS: u32 = 2;
 
 /// Why a BVH file could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -35,7 +47,7 @@ pub enum LoadError {
     #[error("not a sahara BVH file (bad magic)")]
     BadMagic,
     /// The file was written by another version of the format.
-    #[error("unsupported BVH file version {0} (this build reads version {FILE_VERSION})")]
+    #[error("unsupported BVH file version {0} (this build reads versions 1 to {FILE_VERSION})")]
     UnsupportedVersion(u32),
     /// The file ends before the data its header announces.
     #[error("truncated BVH file: header announces {expected} bytes, file has {actual}")]
@@ -85,13 +97,29 @@ impl Bvh {
         for p in &self.prim_indices {
             payload.extend_from_slice(&p.to_le_bytes());
         }
-        let mut header = Vec::with_capacity(HEADER_LEN);
+        let mut flags = self.spatial_splits as u32;
+        if let Some(cuts) = &self.ref_cuts {
+            flags |= FLAG_CUTS;
+            for s in cuts.starts() {
+                payload.extend_from_slice(&s.to_le_bytes());
+            }
+            for c in cuts.cuts() {
+                for w in c.to_words() {
+                    payload.extend_from_slice(&w.to_le_bytes());
+                }
+            }
+        }
+        let version: u32 = if self.ref_cuts.is_some() { 2 } else { 1 };
+        let mut header = Vec::with_capacity(HEADER_LEN + 8);
         header.extend_from_slice(&FILE_MAGIC);
-        header.extend_from_slice(&FILE_VERSION.to_le_bytes());
-        header.extend_from_slice(&(self.spatial_splits as u32).to_le_bytes());
+        header.extend_from_slice(&version.to_le_bytes());
+        header.extend_from_slice(&flags.to_le_bytes());
         header.extend_from_slice(&(self.nodes.len() as u64).to_le_bytes());
         header.extend_from_slice(&(self.prim_indices.len() as u64).to_le_bytes());
         header.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+        if let Some(cuts) = &self.ref_cuts {
+            header.extend_from_slice(&(cuts.cut_count() as u64).to_le_bytes());
+        }
         w.write_all(&header)?;
         w.write_all(&payload)
     }
@@ -127,17 +155,55 @@ impl Bvh {
         let u32_at = |o: usize| u32::from_le_bytes(header[o..o + 4].try_into().unwrap());
         let u64_at = |o: usize| u64::from_le_bytes(header[o..o + 8].try_into().unwrap());
         let version = u32_at(8);
-        if version != FILE_VERSION {
+        if !(1..=FILE_VERSION).contains(&version) {
             return Err(LoadError::UnsupportedVersion(version));
         }
         let flags = u32_at(12);
-        if flags & !1 != 0 {
+        let known = if version >= 2 {
+            FLAG_SPATIAL | FLAG_CUTS
+        } else {
+            FLAG_SPATIAL
+        };
+        if flags & !known != 0 {
             return Err(LoadError::UnknownFlags(flags));
         }
         let (n_nodes, n_refs, checksum) = (u64_at(16), u64_at(24), u64_at(32));
-        let expected = n_nodes
-            .checked_mul(32)
-            .and_then(|a| n_refs.checked_mul(4).and_then(|b| a.checked_add(b)));
+        let has_cuts = flags & FLAG_CUTS != 0;
+        let mut n_cuts = 0u64;
+        if version >= 2 {
+            let mut extra = [0u8; 8];
+            let mut got = 0;
+            while got < 8 {
+                match r.read(&mut extra[got..])? {
+                    0 => break,
+                    k => got += k,
+                }
+            }
+            if got < 8 {
+                return Err(LoadError::Truncated {
+                    expected: HEADER_LEN as u64 + 8,
+                    actual: (HEADER_LEN + got) as u64,
+                });
+            }
+            n_cuts = u64::from_le_bytes(extra);
+        }
+        // Version 2 without bit 1 announces no cuts.
+        let cut_bytes = if has_cuts {
+            n_refs
+                .checked_add(1)
+                .and_then(|s| s.checked_mul(4))
+                .and_then(|s| n_cuts.checked_mul(8).and_then(|c| s.checked_add(c)))
+        } else if n_cuts == 0 {
+            Some(0)
+        } else {
+            None
+        };
+        let expected = n_nodes.checked_mul(32).and_then(|a| {
+            n_refs
+                .checked_mul(4)
+                .and_then(|b| a.checked_add(b))
+                .and_then(|ab| cut_bytes.and_then(|c| ab.checked_add(c)))
+        });
         // Read at most what the header announces (plus one byte to detect trailing data):
         // the allocation grows with the bytes present, not with the size fields.
         let limit = expected.unwrap_or(u64::MAX).saturating_add(1);
@@ -163,7 +229,8 @@ impl Bvh {
         if fnv1a(&payload) != checksum {
             return Err(LoadError::Checksum);
         }
-        let (node_bytes, ref_bytes) = payload.split_at(n_nodes as usize * 32);
+        let (node_bytes, rest) = payload.split_at(n_nodes as usize * 32);
+        let (ref_bytes, cut_bytes) = rest.split_at(n_refs as usize * 4);
         let word = |b: &[u8], i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
         let nodes = node_bytes
             .chunks_exact(32)
@@ -175,10 +242,24 @@ impl Bvh {
             })
             .collect();
         let prim_indices = ref_bytes.chunks_exact(4).map(|c| word(c, 0)).collect();
+        let ref_cuts = if has_cuts {
+            let (start_bytes, cut_bytes) = cut_bytes.split_at((n_refs as usize + 1) * 4);
+            let starts = start_bytes.chunks_exact(4).map(|c| word(c, 0)).collect();
+            let cuts: Option<Vec<Cut>> = cut_bytes
+                .chunks_exact(8)
+                .map(|c| Cut::from_words([word(c, 0), word(c, 1)]))
+                .collect();
+            let bad = ValidationError::BadCuts { reference: 0 };
+            let cuts = cuts.ok_or(bad.clone())?;
+            Some(RefCuts::from_parts(starts, cuts).ok_or(bad)?)
+        } else {
+            None
+        };
         let bvh = Bvh {
             nodes,
             prim_indices,
-            spatial_splits: flags & 1 != 0,
+            spatial_splits: flags & FLAG_SPATIAL != 0,
+            ref_cuts,
         };
         bvh.validate_structure()?;
         Ok(bvh)

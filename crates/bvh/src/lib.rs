@@ -22,6 +22,7 @@
 //!     nodes: vec![Node::inner(&a.union(&b), 2), Node::leaf(&a, 0, 1), Node::leaf(&b, 1, 1)],
 //!     prim_indices: vec![0, 1],
 //!     spatial_splits: false,
+//!     ref_cuts: None,
 //! };
 //! bvh.validate(&tris).unwrap();
 //! let stats = bvh.stats();
@@ -33,12 +34,14 @@
 //! ```
 #![warn(missing_docs)]
 
+mod cuts;
 mod io;
 mod node;
 mod refit;
 mod stats;
 mod validate;
 
+pub use cuts::{replay_cuts, Cut, Keep, RefCuts};
 pub use io::{LoadError, FILE_MAGIC, FILE_VERSION};
 pub use node::Node;
 pub use refit::RefitError;
@@ -56,6 +59,12 @@ pub struct Bvh {
     /// True when a primitive may be referenced by several leaves (spatial splits); leaf
     /// bounds may then cut through a primitive's bounds.
     pub spatial_splits: bool,
+    /// Where spatial splits cut each reference (one entry per `prim_indices` slot), recorded
+    /// by the spatial-split builders so that [`Bvh::refit_triangles`] clips moved triangles
+    /// as the builder did ([`RefCuts`]). `None` for trees without spatial splits, for trees
+    /// of other primitives and for trees loaded from version-1 files: a refit then uses the
+    /// primitives' whole boxes. Not part of [`Bvh::fingerprint`].
+    pub ref_cuts: Option<RefCuts>,
 }
 
 impl Bvh {

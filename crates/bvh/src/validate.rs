@@ -4,10 +4,19 @@ use sahara_geom::{clip, Aabb, Triangle};
 /// What [`Bvh::validate`] found wrong. Node and reference numbers are array indices.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ValidationError {
+    /// The cut records ([`Bvh::ref_cuts`]) do not have one entry per reference, or reference
+    /// `reference` has an invalid cut (axis above 2, position not finite).
+    #[error("the cut records are invalid at reference {reference}")]
+    BadCuts {
+        /// The first bad reference.
+        reference: usize,
+    },
     /// The scene has primitives but the tree has no node.
     #[error("the tree is empty but the scene has {0} primitives")]
     MissingRoot(usize),
-    /// A node's bounds are NaN or infinite, or empty.
+    /// A node's bounds are NaN or infinite, or empty (with [`Bvh::ref_cuts`], a node may be
+    /// exactly [`Aabb::EMPTY`]: a refit found every triangle under it outside its split
+    /// regions).
     #[error("node {node} has non-finite or empty bounds")]
     BadBounds {
         /// The node.
@@ -99,7 +108,10 @@ impl Bvh {
     ///   reached exactly once, every reference slot used by exactly one leaf, leaves non-empty
     ///   (inner nodes have two children by construction, so no inner node is empty);
     /// * geometry: finite non-empty bounds, children inside their parent, each referenced
-    ///   triangle's bounds inside its leaf (with spatial splits: the triangle touches the leaf);
+    ///   triangle's bounds inside its leaf (with spatial splits: the triangle touches the leaf;
+    ///   with cut records ([`Bvh::ref_cuts`]): the leaf holds the reference's replayed box
+    ///   ([`crate::RefCuts::replay`]), which may be empty after a refit, and a node may then be
+    ///   exactly [`Aabb::EMPTY`]);
     /// * coverage: every triangle referenced, exactly once unless `spatial_splits` is set.
     ///
     /// Never panics, whatever the arrays hold.
@@ -116,7 +128,8 @@ impl Bvh {
         let mut uses = vec![0u32; n_prims];
         for (i, node) in self.nodes.iter().enumerate() {
             let b = node.bounds();
-            if !b.is_finite() || b.is_empty() {
+            let vacant = self.ref_cuts.is_some() && b == Aabb::EMPTY;
+            if !vacant && (!b.is_finite() || b.is_empty()) {
                 return Err(ValidationError::BadBounds { node: i });
             }
             if !node.is_leaf() {
@@ -131,7 +144,8 @@ impl Bvh {
                 }
                 continue;
             }
-            for &p in self.leaf_prims(node) {
+            for (slot, &p) in self.leaf_prims(node).iter().enumerate() {
+                let slot = node.index as usize + slot;
                 let p = p as usize;
                 let Some(tri) = triangles.get(p) else {
                     return Err(ValidationError::PrimitiveOutOfRange {
@@ -141,7 +155,9 @@ impl Bvh {
                     });
                 };
                 uses[p] += 1;
-                let inside = if self.spatial_splits {
+                let inside = if let Some(cuts) = &self.ref_cuts {
+                    b.contains_aabb(&cuts.replay(slot, tri))
+                } else if self.spatial_splits {
                     touches(tri, &b)
                 } else {
                     b.contains_aabb(&tri.bounds())
@@ -165,11 +181,15 @@ impl Bvh {
         Ok(())
     }
 
-    /// Checks only the structure (indices, reachability, reference slots); needs no
+    /// Checks only the structure (indices, reachability, reference slots, the shape of the cut
+    /// records); needs no
     /// geometry. [`Bvh::load`] runs it so that a loaded tree can be traversed safely.
     pub fn validate_structure(&self) -> Result<(), ValidationError> {
         let n = self.nodes.len();
         if n == 0 {
+            if let Some(cuts) = &self.ref_cuts {
+                cuts.check(self.prim_indices.len())?;
+            }
             return if self.prim_indices.is_empty() {
                 Ok(())
             } else {
@@ -224,6 +244,9 @@ impl Bvh {
                 slot,
                 times: slot_use[slot] as usize,
             });
+        }
+        if let Some(cuts) = &self.ref_cuts {
+            cuts.check(self.prim_indices.len())?;
         }
         Ok(())
     }

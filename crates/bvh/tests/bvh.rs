@@ -24,6 +24,7 @@ fn scene() -> (Vec<Triangle>, Bvh) {
         ],
         prim_indices: vec![0, 1, 2, 3],
         spatial_splits: false,
+        ref_cuts: None,
     };
     (tris, bvh)
 }
@@ -173,5 +174,106 @@ fn structurally_broken_payload_is_rejected() {
     assert!(matches!(
         Bvh::load(&mut bytes.as_slice()),
         Err(LoadError::Invalid(_))
+    ));
+}
+
+/// A tree with cut records: the scene's four triangles, the first one's reference cut into
+/// two (leaves 2 and 3 hold its halves left and right of x = 0.5).
+fn cut_scene() -> (Vec<Triangle>, Bvh) {
+    use sahara_bvh::{Cut, Keep, RefCuts};
+    let (tris, mut bvh) = scene();
+    let cut = |keep| Cut {
+        pos: 0.5,
+        axis: 0,
+        keep,
+        depth: 1,
+    };
+    let mut cuts = RefCuts::new();
+    cuts.push(&[cut(Keep::Below)]);
+    cuts.push(&[cut(Keep::Above)]);
+    cuts.push(&[]);
+    cuts.push(&[]);
+    bvh.prim_indices = vec![0, 0, 1, 2];
+    bvh.spatial_splits = true;
+    // The scene's triangle 1 is referenced nowhere: drop it.
+    let tris = vec![tris[0], tris[2], tris[3]];
+    let (l, r) = (cuts.replay(0, &tris[0]), cuts.replay(1, &tris[0]));
+    // Node 1 (depth 1) made the cut: it is bounded by the reference before the cut.
+    bvh.nodes[1] = Node::inner(&tris[0].bounds(), 3);
+    bvh.nodes[2] = Node::leaf(&l, 0, 1);
+    bvh.nodes[3] = Node::leaf(&r, 1, 1);
+    bvh.ref_cuts = Some(cuts);
+    (tris, bvh)
+}
+
+#[test]
+fn cut_records_save_as_version_2_and_trees_without_them_as_version_1() {
+    let (tris, bvh) = cut_scene();
+    bvh.validate(&tris).unwrap();
+    let mut file = Vec::new();
+    bvh.save(&mut file).unwrap();
+    assert_eq!(file[8..12], 2u32.to_le_bytes());
+    assert_eq!(Bvh::load(&mut file.as_slice()).unwrap(), bvh);
+    // Every truncation is refused.
+    for cut in 0..file.len() {
+        assert!(Bvh::load(&mut &file[..cut]).is_err(), "{cut}");
+    }
+    // A bad cut (axis 3) in the payload, checksum fixed: refused as invalid.
+    let mut bad = file.clone();
+    let at = bad.len() - 8 * 2 + 4;
+    bad[at] |= 3;
+    let sum = {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for &b in &bad[48..] {
+            h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+        h
+    };
+    bad[32..40].copy_from_slice(&sum.to_le_bytes());
+    assert!(matches!(
+        Bvh::load(&mut bad.as_slice()),
+        Err(LoadError::Invalid(ValidationError::BadCuts { .. }))
+    ));
+    // Without records: version 1, loadable, refits with whole boxes.
+    let mut old = bvh.clone();
+    old.ref_cuts = None;
+    let mut v1 = Vec::new();
+    old.save(&mut v1).unwrap();
+    assert_eq!(v1[8..12], 1u32.to_le_bytes());
+    let mut loaded = Bvh::load(&mut v1.as_slice()).unwrap();
+    assert_eq!(loaded, old);
+    loaded.refit_triangles(&tris).unwrap();
+    assert!(loaded.nodes[2].bounds().contains_aabb(&tris[0].bounds()));
+    // Records that do not match the references are a structure error.
+    let mut short = bvh.clone();
+    short.prim_indices.push(3);
+    short.nodes[4] = Node::leaf(&short.nodes[4].bounds(), 2, 3);
+    assert!(matches!(
+        short.validate_structure(),
+        Err(ValidationError::BadCuts { .. })
+    ));
+}
+
+#[test]
+fn refit_with_cut_records_keeps_the_halves_and_empty_leaves_validate() {
+    let (tris, bvh) = cut_scene();
+    let mut r = bvh.clone();
+    r.refit_triangles(&tris).unwrap();
+    assert_eq!(r, bvh);
+    // Triangle 0 moved entirely right of the cut: the left half's leaf is empty, the tree
+    // still validates (and node 1 holds the moved triangle).
+    let mut moved = tris.clone();
+    let d = Vec3A::new(3.0, 0.0, 0.0);
+    moved[0] = Triangle::new(tris[0].v[0] + d, tris[0].v[1] + d, tris[0].v[2] + d);
+    r.refit_triangles(&moved).unwrap();
+    assert_eq!(r.nodes[2].bounds(), Aabb::EMPTY);
+    assert!(r.nodes[3].bounds().contains_aabb(&moved[0].bounds()));
+    r.validate(&moved).unwrap();
+    // A tree without records rejects an empty node.
+    let mut plain = r.clone();
+    plain.ref_cuts = None;
+    assert!(matches!(
+        plain.validate(&moved),
+        Err(ValidationError::BadBounds { node: 2 })
     ));
 }

@@ -131,6 +131,32 @@ pub fn clipped_bounds(tri: &Triangle, aabb: &Aabb) -> Aabb {
     clip_triangle(tri, aabb).bounds().intersection(aabb)
 }
 
+/// Bounds of the parts of `tri` inside the two halves of `cur` cut at `pos` on `axis`: how
+/// the spatial-split builders cut a triangle reference (`cur` is the reference's box), and how
+/// refitting replays those cuts on moved triangles (`sahara_bvh::RefCuts`).
+///
+/// The triangle is clipped to each half box, so a non-empty half touches the triangle. The
+/// clipped polygon's vertices are rounded to `f32`, which may move them off the triangle by
+/// half a unit in the last place: on a triangle that is almost flat along an axis this is
+/// enough for the rounded box to miss the real triangle. Each piece's box is therefore grown
+/// by about two units in the last place and then intersected with its half box again, so that
+/// it stays inside the reference's box and on its side of the plane.
+pub fn clip_halves(tri: &Triangle, axis: Axis, pos: f32, cur: &Aabb) -> (Aabb, Aabb) {
+    let mut lbox = *cur;
+    lbox.max[axis] = lbox.max[axis].min(pos);
+    let mut rbox = *cur;
+    rbox.min[axis] = rbox.min[axis].max(pos);
+    let piece = |half: &Aabb| {
+        let b = clipped_bounds(tri, half);
+        if b.is_empty() {
+            return b;
+        }
+        let slack = |v: Vec3A| v.abs() * (2.0 * f32::EPSILON) + Vec3A::splat(f32::MIN_POSITIVE);
+        Aabb::new(b.min - slack(b.min), b.max + slack(b.max)).intersection(half)
+    };
+    (piece(&lbox), piece(&rbox))
+}
+
 /// Splits a triangle reference by the plane `p[axis] = pos`, as spatial splits do.
 ///
 /// `current` is the reference's current box (a sub-box of the triangle's bounds after earlier

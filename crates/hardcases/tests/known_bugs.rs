@@ -18,6 +18,7 @@ fn one_leaf(tris: &[Triangle]) -> Bvh {
         nodes: vec![Node::leaf(&b, 0, tris.len() as u32)],
         prim_indices: (0..tris.len() as u32).collect(),
         spatial_splits: false,
+        ref_cuts: None,
     }
 }
 

@@ -414,6 +414,7 @@ mod tests {
             ],
             prim_indices: vec![0, 1],
             spatial_splits: false,
+            ref_cuts: None,
         };
         let tris = [a, b];
         // b ∩ box(a) = {0.5 <= x <= 1, y <= 1.5 - x}: 0.375; a ∩ box(b) = {0.5 <= x, y <= 1 - x}:

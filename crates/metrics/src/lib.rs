@@ -19,7 +19,7 @@
 //! use sahara_metrics::{sah, CostModel};
 //!
 //! let unit = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
-//! let leaf = Bvh { nodes: vec![Node::leaf(&unit, 0, 3)], prim_indices: vec![0, 1, 2], spatial_splits: false };
+//! let leaf = Bvh { nodes: vec![Node::leaf(&unit, 0, 3)], prim_indices: vec![0, 1, 2], spatial_splits: false, ref_cuts: None };
 //! assert_eq!(sah(&leaf, &CostModel::default()), 3.0);
 //! ```
 #![warn(missing_docs)]

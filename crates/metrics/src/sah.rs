@@ -69,6 +69,7 @@ mod tests {
             ],
             prim_indices: vec![0, 1, 2, 3, 4],
             spatial_splits: false,
+            ref_cuts: None,
         };
         let c = CostModel::default();
         let (ap, al, ar) = (
@@ -94,6 +95,7 @@ mod tests {
             ],
             prim_indices: vec![0, 1],
             spatial_splits: false,
+            ref_cuts: None,
         };
         let c = sah(&bvh, &CostModel::default());
         assert!(c.is_finite(), "{c}");

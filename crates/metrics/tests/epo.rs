@@ -122,6 +122,7 @@ fn spatial_tree(reference_in_middle: bool) -> (Bvh, Vec<Triangle>) {
         ],
         prim_indices: prims,
         spatial_splits: true,
+        ref_cuts: None,
     };
     (bvh, tris)
 }

@@ -233,8 +233,12 @@ impl Accel {
     /// new position) and refits the tree and its 8-wide layout bottom-up, keeping their
     /// topology: much cheaper than a rebuild, and exact (every answer equals brute force over
     /// the new triangles), but the tree's quality decays as the motion grows
-    /// (`docs/refit.md` measures how fast). A tree with spatial splits ([`Quality::High`],
-    /// [`Quality::Best`]) is refitted with whole triangle boxes: still exact, looser.
+    /// (`docs/refit.md` measures how fast, per level). Refitting to unmoved triangles is the
+    /// identity, bit for bit, at every level: a tree with spatial splits ([`Quality::High`],
+    /// [`Quality::Best`]) keeps where its builder cut each triangle ([`Bvh::ref_cuts`]) and
+    /// clips the moved triangles again at those planes, so its boxes stay clipped (a structure
+    /// loaded from a file of an older version, without those records, refits with whole
+    /// triangle boxes: still exact, looser).
     ///
     /// Fails, leaving the structure unchanged, with [`Error::RefitCount`] when the count
     /// differs and [`Error::Refit`] on a NaN or infinite coordinate.

@@ -6,7 +6,7 @@ use sahara::sahara_traverse::brute;
 use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::rays::segments_in;
-use sahara_fixtures::soups::mixed_soup;
+use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::Aabb;
 
@@ -117,17 +117,30 @@ fn moved(tris: &[Triangle], amount: f32, seed: u64) -> Vec<Triangle> {
 #[test]
 fn refit_equals_brute_force_on_the_moved_triangles() {
     let tris = mixed_soup(1_500, 8);
-    for quality in [Quality::Medium, Quality::High] {
+    let size = bounds(tris.iter().flat_map(|t| t.v)).extent().max_element();
+    for quality in [Quality::Fast, Quality::Medium, Quality::High, Quality::Best] {
         let mut accel = Accel::build(&tris, quality).unwrap();
-        // Refitting an object-split tree to the same triangles changes nothing, bit for bit.
-        // A spatial-split tree's clipped boxes become whole triangle boxes (looser, still
-        // exact: checked by the rays below).
+        // Refitting to the same triangles changes nothing, bit for bit, at every level: the
+        // spatial-split trees (High, Best) clip their references again by the recorded cuts.
         let (bvh0, wide0) = (accel.bvh().fingerprint(), accel.wide().fingerprint());
+        let spatial = accel.bvh().spatial_splits;
+        assert_eq!(spatial, accel.bvh().ref_cuts.is_some(), "{quality:?}");
         accel.refit(&tris).unwrap();
-        let identity = (accel.bvh().fingerprint(), accel.wide().fingerprint()) == (bvh0, wide0);
-        assert!(identity || accel.bvh().spatial_splits, "{quality:?}");
-        for frame in 1..=3 {
-            let now = moved(&tris, 0.05 * frame as f32, frame);
+        assert_eq!(accel.bvh().fingerprint(), bvh0, "{quality:?}");
+        assert_eq!(accel.wide().fingerprint(), wide0, "{quality:?}");
+        // Also after a save and a load (the cut records are saved).
+        let mut file = Vec::new();
+        accel.save(&mut file).unwrap();
+        let mut loaded = Accel::load(&mut file.as_slice()).unwrap();
+        loaded.refit(&tris).unwrap();
+        assert_eq!(loaded.wide().fingerprint(), wide0, "{quality:?} loaded");
+        for frame in 1..=4 {
+            let now = if frame <= 2 {
+                moved(&tris, 0.05 * frame as f32, frame)
+            } else {
+                // Large random motion: up to a fifth and a half of the scene per axis.
+                exploded(&tris, [0.2, 0.5][frame as usize - 3] * size, frame)
+            };
             accel.refit(&now).unwrap();
             accel.bvh().validate(&now).unwrap();
             assert_eq!(accel.triangles(), &now[..]);
@@ -136,9 +149,13 @@ fn refit_equals_brute_force_on_the_moved_triangles() {
             let got_any = accel.any_hits(&rays);
             for (i, r) in rays.iter().enumerate() {
                 let want = brute::closest_hit(&now, r);
+                // Bit for bit: the hit's distance, triangle and barycentrics.
+                let bits = |h: Option<sahara::Hit>| {
+                    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+                };
                 assert_eq!(
-                    got[i],
-                    want.is_hit().then_some(want),
+                    bits(got[i]),
+                    bits(want.is_hit().then_some(want)),
                     "{quality:?} frame {frame} ray {i}"
                 );
                 assert_eq!(

@@ -31,7 +31,7 @@
 //!     Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, 1.0, 0.0), Vec3A::new(-1.0, 1.0, 0.0)),
 //! ];
 //! let bounds = tris[0].bounds().union(&tris[1].bounds());
-//! let bvh = Bvh { nodes: vec![Node::leaf(&bounds, 0, 2)], prim_indices: vec![0, 1], spatial_splits: false };
+//! let bvh = Bvh { nodes: vec![Node::leaf(&bounds, 0, 2)], prim_indices: vec![0, 1], spatial_splits: false, ref_cuts: None };
 //! let tracer = Bvh2Tracer::new(&bvh, &tris);
 //!
 //! let camera = Camera::new(Vec3A::new(0.0, 0.0, 3.0), Vec3A::ZERO, Vec3A::Y, 60.0);

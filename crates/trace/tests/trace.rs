@@ -80,6 +80,7 @@ fn median_split_bvh(tris: &[Triangle]) -> Bvh {
         nodes,
         prim_indices: idx,
         spatial_splits: false,
+        ref_cuts: None,
     };
     bvh.validate(tris).expect("test builder makes valid trees");
     bvh

@@ -5,6 +5,12 @@
 //!
 //! `cargo run --release -p sahara-traverse --example refit_decay [builder] [size]`
 //! (defaults: `binned`, 100000).
+//!
+//! `cargo run --release -p sahara-traverse --example refit_decay levels [size]`: the compact
+//! tables of `docs/refit.md` for the builders of the four façade levels (`binned`, `sweep`,
+//! `sbvh`, `tsah-sbvh`: `Quality::Fast` to `Quality::Best`), frames 0, 1, 2, 5 and 10, and
+//! the refit of the spatial-split trees to unmoved triangles without their cut records (how
+//! refit worked before the records: whole triangle boxes).
 
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_fixtures::rays::point_in;
@@ -148,10 +154,109 @@ fn work(w: &Bvh8, rays: &[Ray]) -> f64 {
     (c.inner + c.triangles) as f64 / rays.len() as f64
 }
 
+/// The builders of `Quality::Fast`, `Medium`, `High` and `Best`.
+const LEVELS: [(&str, &str); 4] = [
+    ("Fast", "binned"),
+    ("Medium", "sweep"),
+    ("High", "sbvh"),
+    ("Best", "tsah-sbvh"),
+];
+
+/// The frames of the compact tables.
+const FRAMES: [usize; 5] = [0, 1, 2, 5, 10];
+
+/// SAH and traced work (bvh8) of `tree` over `tris` relative to a rebuild's.
+fn ratios(
+    tree: &sahara_bvh::Bvh,
+    wide: &Bvh8,
+    fresh: &sahara_bvh::Bvh,
+    fresh_wide: &Bvh8,
+    rays: &[Ray],
+) -> (f64, f64) {
+    let cost = CostModel::default();
+    let sah = sahara_metrics::sah(tree, &cost) / sahara_metrics::sah(fresh, &cost);
+    (sah, work(wide, rays) / work(fresh_wide, rays))
+}
+
+/// The compact tables of every level (see the module documentation).
+fn levels(size: usize) {
+    let cost = CostModel::default();
+    println!("levels, about {size} triangles per scene\n");
+    let mut before = Vec::new();
+    for m in motions(size) {
+        println!("**{}** ({})\n", m.name, m.what);
+        let head: Vec<String> = FRAMES.iter().map(|f| format!("f{f}")).collect();
+        println!(
+            "| level (builder) | SAH refit / rebuilt: {} | work refit / rebuilt (bvh8): {} |",
+            head.join(", "),
+            head.join(", ")
+        );
+        println!("|---|---|---|");
+        let frames: Vec<Vec<Triangle>> = FRAMES.iter().map(|&f| (m.frame)(f)).collect();
+        let rays: Vec<Vec<Ray>> = frames.iter().map(|t| rays(t, 10_000)).collect();
+        for (level, name) in LEVELS {
+            let builder = registry::by_name(name).expect("registered");
+            let build = |t: &[Triangle]| builder.build(&BuildInput::new(t, cost).unwrap()).unwrap();
+            let f0 = &frames[0];
+            let mut tree = build(f0);
+            let mut wide = Bvh8::from_bvh(&tree, f0);
+            let (mut sahs, mut works) = (Vec::new(), Vec::new());
+            for (tris, rays) in frames.iter().zip(&rays) {
+                tree.refit_triangles(tris).unwrap();
+                wide.refit_triangles(tris).unwrap();
+                tree.validate(tris).unwrap();
+                let fresh = build(tris);
+                let fresh_wide = Bvh8::from_bvh(&fresh, tris);
+                let (s, w) = ratios(&tree, &wide, &fresh, &fresh_wide, rays);
+                sahs.push(format!("{s:.3}"));
+                works.push(format!("{w:.3}"));
+            }
+            println!(
+                "| {level} (`{name}`) | {} | {} |",
+                sahs.join(", "),
+                works.join(", ")
+            );
+            if tree.ref_cuts.is_some() {
+                // Refit to the unmoved frame 0 as before the cut records: whole boxes.
+                let built = build(f0);
+                let mut old = built.clone();
+                old.ref_cuts = None;
+                old.refit_triangles(f0).unwrap();
+                let mut old_wide = Bvh8::from_bvh(&old, f0);
+                old_wide.refit_triangles(f0).unwrap();
+                let mut new = built.clone();
+                new.refit_triangles(f0).unwrap();
+                let mut new_wide = Bvh8::from_bvh(&built, f0);
+                new_wide.refit_triangles(f0).unwrap();
+                let built_wide = Bvh8::from_bvh(&built, f0);
+                let (s0, w0) = ratios(&old, &old_wide, &built, &built_wide, &rays[0]);
+                let (s1, w1) = ratios(&new, &new_wide, &built, &built_wide, &rays[0]);
+                before.push(format!(
+                    "| {} | {level} (`{name}`) | {s0:.3} | {w0:.3} | {s1:.3} | {w1:.3} |",
+                    m.name
+                ));
+            }
+        }
+        println!();
+    }
+    println!("**refit to unmoved triangles** (frame 0), relative to the built tree\n");
+    println!(
+        "| scene | level | SAH, whole boxes (before) | work, whole boxes | SAH, cut records (now) | work, cut records |"
+    );
+    println!("|---|---|---:|---:|---:|---:|");
+    for row in before {
+        println!("{row}");
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let builder_name = args.get(1).map_or("binned", |s| s.as_str()).to_string();
     let size: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(100_000);
+    if builder_name == "levels" {
+        levels(size);
+        return;
+    }
     let builder = registry::by_name(&builder_name).expect("unknown builder");
     let cost = CostModel::default();
     println!("builder `{builder_name}`, about {size} triangles per scene\n");

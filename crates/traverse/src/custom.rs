@@ -64,7 +64,7 @@
 //! // One sphere of radius 1 at z = 3, as a user primitive.
 //! let (c, r) = (Vec3A::new(0.0, 0.0, 3.0), 1.0f32);
 //! let boxes = [Aabb::new(c - r, c + r)];
-//! let bvh = Bvh { nodes: vec![Node::leaf(&boxes[0], 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let bvh = Bvh { nodes: vec![Node::leaf(&boxes[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 //! let sphere = |ray: &Ray, _prim: u32, tmin: f32, tmax: f32| {
 //!     let oc = ray.origin - c;
 //!     let (a, b, k) = (ray.direction().dot(ray.direction()), oc.dot(ray.direction()), oc.dot(oc) - r * r);

@@ -41,7 +41,7 @@
 //! use glam::{Affine3A, Vec3};
 //!
 //! let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0))];
-//! let blas_tree = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let blas_tree = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 //! let blas = Bvh8::from_bvh(&blas_tree, &tris);
 //! let instances = vec![
 //!     Instance { blas: 0, transform: Affine3A::from_translation(Vec3::new(0.0, 0.0, 5.0)) },
@@ -52,6 +52,7 @@
 //!     nodes: vec![Node::inner(&boxes[0].union(&boxes[1]), 2), Node::leaf(&boxes[0], 0, 1), Node::leaf(&boxes[1], 1, 1)],
 //!     prim_indices: vec![0, 1],
 //!     spatial_splits: false,
+//!     ref_cuts: None,
 //! };
 //! let set = InstanceSet::new(vec![blas], instances, top).unwrap();
 //! let hit = set.closest_hit(&Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY), &mut NoStats).unwrap();
@@ -105,7 +106,7 @@ impl<const W: usize> BottomLevel for WideBvh<W> {
 /// use sahara_traverse::Bvh8;
 ///
 /// let tri = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
-/// let tree = Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+/// let tree = Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 /// let shared = Arc::new(Bvh8::from_bvh(&tree, &[tri]));
 /// let ray = Ray::new(Vec3A::new(0.25, 0.25, -1.0), Vec3A::Z, 0.0, 10.0);
 /// assert_eq!(BottomLevel::closest_hit(&shared, &ray).t, 1.0);
@@ -319,8 +320,8 @@ impl<B: BottomLevel> InstanceSet<B> {
     /// use glam::{Affine3A, Vec3};
     ///
     /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0));
-    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false }, &[tri]);
-    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false };
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
     /// let mut set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
     /// set.set_transforms(&[(0, Affine3A::from_translation(Vec3::new(0.0, 0.0, 4.0)))], one)?;
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
@@ -465,8 +466,8 @@ impl<B: BottomLevel> InstanceSet<B> {
     /// use glam::Affine3A;
     ///
     /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
-    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false }, &[tri]);
-    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false };
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
     /// let mut set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
     /// set.set_mask(0, 0b10).unwrap();
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);

@@ -25,7 +25,7 @@
 //! use sahara_traverse::{brute, scalar, NoStats};
 //!
 //! let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))];
-//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 //! let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
 //! let hit = scalar::closest_hit(&bvh, &tris, &ray, &mut NoStats);
 //! assert_eq!(hit, brute::closest_hit(&tris, &ray));

@@ -56,7 +56,7 @@
 //! use sahara_traverse::{brute, point, Bvh8, NoStats};
 //!
 //! let tris = [Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)];
-//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 //! let p = Vec3A::new(0.25, 0.25, 3.0);
 //! let hit = point::closest_point(&bvh, &tris, p, f32::INFINITY, &mut NoStats).unwrap();
 //! assert_eq!((hit.prim, hit.distance()), (0, 3.0));

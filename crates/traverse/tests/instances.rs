@@ -29,6 +29,7 @@ fn one_leaf(boxes: &[Aabb]) -> Bvh {
         nodes: vec![sahara_bvh::Node::leaf(&b, 0, boxes.len() as u32)],
         prim_indices: (0..boxes.len() as u32).collect(),
         spatial_splits: false,
+        ref_cuts: None,
     }
 }
 

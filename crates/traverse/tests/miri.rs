@@ -157,6 +157,7 @@ fn miri_user_primitives_filters_and_instances() {
         ],
         prim_indices: vec![0, 1],
         spatial_splits: false,
+        ref_cuts: None,
     };
     let set = InstanceSet::new(vec![blas], instances, top).unwrap();
     for ray in rays(&tris, 6, 6) {

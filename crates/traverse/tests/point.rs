@@ -239,6 +239,7 @@ fn the_box_pad_covers_clipped_boxes_off_by_an_ulp() {
         ],
         prim_indices: vec![1, 0],
         spatial_splits: true,
+        ref_cuts: None,
     };
     let want = brute::closest_point(&tris, p, f32::INFINITY);
     assert_eq!(want.map(|h| (h.prim, h.distance_squared)), Some((0, 0.0)));

@@ -1,13 +1,15 @@
 //! Refitting the binary tree and the wide layouts: unchanged primitives give the same tree bit
-//! for bit; after the vertices move, the refitted trees validate and trace exactly as brute
-//! force on every layout and backend; spatial-split trees stay correct; bad input is a typed
-//! error that leaves the tree unchanged.
+//! for bit, spatial-split trees included (their references are clipped again by the recorded
+//! cuts); after the vertices move, the refitted trees validate and trace exactly as brute
+//! force on every layout and backend, also after large motion that takes triangles out of
+//! their references' split regions; spatial-split trees without cut records stay correct;
+//! bad input is a typed error that leaves the tree unchanged.
 
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::{Bvh, RefitError};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::rays::point_in;
-use sahara_fixtures::soups::mixed_soup;
+use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{brute, custom, scalar, Backend, Bvh4, Bvh8, Hit, NoStats, WideBvh};
 
@@ -76,6 +78,18 @@ fn check_traces<const W: usize>(wide: &WideBvh<W>, bvh: &Bvh, tris: &[Triangle],
     }
 }
 
+/// The 8- and 4-wide trees of `bvh` refitted to the unmoved `tris` are unchanged, bit for bit.
+fn wide_refits_are_identities(bvh: &Bvh, tris: &[Triangle], name: &str) {
+    let w8 = Bvh8::from_bvh(bvh, tris);
+    let mut r8 = w8.clone();
+    r8.refit_triangles(tris).unwrap();
+    assert_eq!(r8.fingerprint(), w8.fingerprint(), "{name} bvh8");
+    let w4 = Bvh4::from_bvh(bvh, tris);
+    let mut r4 = w4.clone();
+    r4.refit_triangles(tris).unwrap();
+    assert_eq!(r4.fingerprint(), w4.fingerprint(), "{name} bvh4");
+}
+
 #[test]
 fn refit_of_unchanged_triangles_is_the_identity() {
     let tris = mixed_soup(4_000, 3);
@@ -87,14 +101,7 @@ fn refit_of_unchanged_triangles_is_the_identity() {
         let boxes: Vec<Aabb> = tris.iter().map(Triangle::bounds).collect();
         again.refit(&boxes).unwrap();
         assert_eq!(again.fingerprint(), bvh.fingerprint(), "{name}");
-        let w8 = Bvh8::from_bvh(&bvh, &tris);
-        let mut r8 = w8.clone();
-        r8.refit_triangles(&tris).unwrap();
-        assert_eq!(r8.fingerprint(), w8.fingerprint(), "{name} bvh8");
-        let w4 = Bvh4::from_bvh(&bvh, &tris);
-        let mut r4 = w4.clone();
-        r4.refit_triangles(&tris).unwrap();
-        assert_eq!(r4.fingerprint(), w4.fingerprint(), "{name} bvh4");
+        wide_refits_are_identities(&bvh, &tris, name);
         // Boxes-only trees too.
         let b8 = Bvh8::from_boxes(&bvh, &boxes);
         let mut rb = b8.clone();
@@ -127,10 +134,99 @@ fn refitted_trees_trace_like_brute_force_after_motion() {
     }
 }
 
+/// Every registered preset with spatial splits (clipped references).
+fn spatial_builders() -> Vec<&'static str> {
+    registry::entries()
+        .into_iter()
+        .filter(|e| e.spatial)
+        .map(|e| e.name)
+        .collect()
+}
+
 #[test]
-fn spatial_split_trees_refit_looser_but_correct() {
+fn refit_of_unchanged_triangles_keeps_every_spatial_builders_clipped_boxes() {
+    let tris = mixed_soup(1_500, 4);
+    let cost = CostModel::default();
+    let names = spatial_builders();
+    assert!(names.len() >= 5, "{names:?}");
+    for name in names {
+        let bvh = build(name, &tris);
+        assert!(
+            bvh.spatial_splits && bvh.prim_indices.len() > tris.len(),
+            "{name}"
+        );
+        let cuts = bvh
+            .ref_cuts
+            .as_ref()
+            .expect("spatial builders record their cuts");
+        assert!(cuts.cut_count() > 0, "{name}");
+        bvh.validate(&tris).unwrap();
+        let mut again = bvh.clone();
+        again.refit_triangles(&tris).unwrap();
+        assert_eq!(again.fingerprint(), bvh.fingerprint(), "{name}");
+        assert_eq!(
+            sahara_metrics::sah(&again, &cost),
+            sahara_metrics::sah(&bvh, &cost)
+        );
+        assert!(Bvh8::from_bvh(&bvh, &tris).cut_record_bytes() > 0);
+        wide_refits_are_identities(&bvh, &tris, name);
+    }
+}
+
+#[test]
+fn spatial_split_trees_trace_like_brute_force_after_large_motion() {
+    let tris = mixed_soup(1_500, 5);
+    let bounds = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
+    let size = bounds.extent().max_element();
+    for name in spatial_builders() {
+        let bvh = build(name, &tris);
+        let (mut b2, mut w8, mut w4) = (
+            bvh.clone(),
+            Bvh8::from_bvh(&bvh, &tris),
+            Bvh4::from_bvh(&bvh, &tris),
+        );
+        let mut vacant = 0;
+        for frame in 0..3u64 {
+            let amp = [0.01, 0.1, 0.3][frame as usize] * size;
+            let moved = if frame == 1 {
+                jitter(&tris, amp, frame)
+            } else {
+                exploded(&tris, amp, frame)
+            };
+            b2.refit_triangles(&moved).unwrap();
+            b2.validate(&moved).unwrap();
+            w8.refit_triangles(&moved).unwrap();
+            w4.refit_triangles(&moved).unwrap();
+            // References whose triangle left its split region: empty boxes.
+            let cuts = b2.ref_cuts.as_ref().unwrap();
+            let boxes: Vec<Aabb> = (0..cuts.len())
+                .map(|i| cuts.replay(i, &moved[b2.prim_indices[i] as usize]))
+                .collect();
+            vacant += boxes.iter().filter(|b| b.is_empty()).count();
+            // The split regions of a triangle's references cover space: each moved vertex
+            // lies in one of its triangle's reference boxes.
+            let mut covered = vec![[false; 3]; moved.len()];
+            for (b, &p) in boxes.iter().zip(&b2.prim_indices) {
+                for (k, v) in moved[p as usize].v.iter().enumerate() {
+                    covered[p as usize][k] |= b.contains_aabb(&Aabb::new(*v, *v));
+                }
+            }
+            assert!(covered.iter().all(|c| c.iter().all(|&x| x)), "{name}");
+            let all = moved.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()));
+            let rays = rays(&all, 300, frame);
+            check_traces(&w8, &b2, &moved, &rays);
+            check_traces(&w4, &b2, &moved, &rays[..100]);
+        }
+        assert!(vacant > 0, "{name}: no reference left its region");
+    }
+}
+
+#[test]
+fn spatial_split_trees_without_cut_records_refit_looser_but_correct() {
+    // As a tree loaded from a version-1 file: no cut records.
     let tris = mixed_soup(2_000, 4);
-    let bvh = build("sbvh", &tris);
+    let mut bvh = build("sbvh", &tris);
+    bvh.ref_cuts = None;
     assert!(bvh.spatial_splits && bvh.prim_indices.len() > tris.len());
     let mut r = bvh.clone();
     r.refit_triangles(&tris).unwrap();
@@ -153,6 +249,7 @@ fn spatial_split_trees_refit_looser_but_correct() {
     let bounds = bvh.bounds();
     let rays = rays(&bounds, 400, 1);
     let mut w = Bvh8::from_bvh(&bvh, &tris);
+    assert_eq!(w.cut_record_bytes(), 0);
     w.refit_triangles(&tris).unwrap();
     check_traces(&w, &r, &tris, &rays);
 }

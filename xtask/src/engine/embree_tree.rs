@@ -393,6 +393,7 @@ unsafe fn convert(root: *const u32, n: usize, spatial: bool) -> Result<Bvh, Buil
         nodes: Vec::with_capacity(2 * n),
         prim_indices: Vec::with_capacity(n),
         spatial_splits: spatial,
+        ref_cuts: None,
     };
     enum Step {
         Visit(*const u32, Option<usize>),

@@ -182,6 +182,7 @@ pub fn convert(tree: &obvhs::bvh2::Bvh2, bounds: &[Aabb]) -> Bvh {
         nodes: Vec::with_capacity(tree.nodes.len()),
         prim_indices: Vec::with_capacity(bounds.len()),
         spatial_splits: false,
+        ref_cuts: None,
     };
     if tree.nodes.is_empty() {
         return out;

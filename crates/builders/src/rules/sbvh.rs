@@ -4,6 +4,7 @@
 //! configuration ([`SbvhConfig`]), a node's task (references, depth,
 //! duplication budget), the decision at one node and the rule.
 
+use sahara_bvh::RefCuts;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
@@ -13,7 +14,8 @@ use crate::split::object::{
     ObjectSearch, Ref,
 };
 use crate::split::spatial::{
-    apply_spatial, child_budgets, refined_spatial_search, spatial_search, Clipper, SpatialCand,
+    apply_spatial, child_budgets, refined_spatial_search, spatial_search, Clipper, CutLog,
+    SpatialCand,
 };
 use crate::topdown::{Rule, Step};
 use crate::{BuildError, BuildInput};
@@ -188,18 +190,12 @@ pub(crate) fn initial_refs(input: &BuildInput, prims: Option<&[u32]>) -> Vec<Ref
     match prims {
         Some(p) => p
             .iter()
-            .map(|&prim| Ref {
-                bounds: b[prim as usize],
-                prim,
-            })
+            .map(|&prim| Ref::new(b[prim as usize], prim))
             .collect(),
         None => b
             .iter()
             .enumerate()
-            .map(|(i, &bounds)| Ref {
-                bounds,
-                prim: i as u32,
-            })
+            .map(|(i, &bounds)| Ref::new(bounds, i as u32))
             .collect(),
     }
 }
@@ -213,6 +209,9 @@ pub(crate) struct Ctx<'a> {
     pub cfg: SbvhConfig,
     /// Half area of the root (of the whole build, also for temporary subtrees).
     pub root_area: f64,
+    /// Where applied spatial splits record their cuts (the tree's build; `None` for
+    /// temporaries and cost-only builds, whose trees are dropped).
+    pub log: Option<&'a CutLog>,
 }
 
 impl<'a> Ctx<'a> {
@@ -222,12 +221,30 @@ impl<'a> Ctx<'a> {
             cost: input.cost,
             cfg,
             root_area: half_area(&refs_bounds(root_refs)),
+            log: None,
         }
     }
 
-    /// The same context with another configuration.
+    /// The same context with another configuration, recording no cuts.
     pub fn with_config(&self, cfg: SbvhConfig) -> Self {
-        Self { cfg, ..*self }
+        Self {
+            cfg,
+            log: None,
+            ..*self
+        }
+    }
+
+    /// The same context recording the cuts of the spatial splits it applies into `log`.
+    pub fn logging(&self, log: &'a CutLog) -> Self {
+        Self {
+            log: Some(log),
+            ..*self
+        }
+    }
+
+    /// The same context recording no cuts.
+    pub fn unlogged(&self) -> Self {
+        Self { log: None, ..*self }
     }
 
     /// The `k` best object splits of a node with at least two references (never empty), by
@@ -275,10 +292,16 @@ impl<'a> Ctx<'a> {
         spatial_search(c, refs, bounds, area, k, budget, fine, &self.cost)
     }
 
-    /// The two sides of a spatial split (see [`apply_spatial`]).
-    pub fn apply_spatial(&self, refs: &[Ref], cand: &SpatialCand) -> Option<(Vec<Ref>, Vec<Ref>)> {
+    /// The two sides of a spatial split at a node at `depth` (see [`apply_spatial`]).
+    pub fn apply_spatial(
+        &self,
+        refs: &[Ref],
+        cand: &SpatialCand,
+        depth: usize,
+    ) -> Option<(Vec<Ref>, Vec<Ref>)> {
         let clipper = self.clipper.as_ref()?;
-        apply_spatial(clipper, refs, cand, self.cfg.unsplitting)
+        let log = self.log.map(|l| (l, depth));
+        apply_spatial(clipper, refs, cand, self.cfg.unsplitting, log)
     }
 }
 
@@ -377,7 +400,7 @@ pub(crate) fn decide_with(
         return Decision::Leaf;
     }
     if let Some(s) = spatial {
-        if let Some((l, r)) = ctx.apply_spatial(refs, &s) {
+        if let Some((l, r)) = ctx.apply_spatial(refs, &s, depth) {
             return Decision::Split(l, r);
         }
     }
@@ -449,7 +472,28 @@ impl Rule for SbvhRule<'_> {
         out.extend(t.refs.iter().map(|r| r.prim));
     }
 
+    fn leaf_cuts(&self, t: &SbvhTask, out: &mut Vec<u32>) {
+        leaf_cuts(&self.0, t, out)
+    }
+
+    fn ref_cuts(&self, heads: &[u32]) -> Option<RefCuts> {
+        ref_cuts(&self.0, heads)
+    }
+
     fn parallel_threshold(&self) -> usize {
         2048
     }
+}
+
+/// [`Rule::leaf_cuts`] of the rules over SBVH tasks: the references' last cuts, when `ctx`
+/// records them.
+pub(crate) fn leaf_cuts(ctx: &Ctx, t: &SbvhTask, out: &mut Vec<u32>) {
+    if ctx.log.is_some() {
+        out.extend(t.refs.iter().map(|r| r.cut));
+    }
+}
+
+/// [`Rule::ref_cuts`] of the rules over SBVH tasks.
+pub(crate) fn ref_cuts(ctx: &Ctx, heads: &[u32]) -> Option<RefCuts> {
+    ctx.log.map(|log| log.resolve(heads))
 }

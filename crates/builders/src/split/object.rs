@@ -24,9 +24,23 @@ pub struct Ref {
     pub bounds: Aabb,
     /// The primitive's index.
     pub prim: u32,
+    /// The last cut applied to the reference, an entry of the build's
+    /// [`CutLog`](crate::split::spatial::CutLog), or [`NO_CUT`](crate::split::spatial::NO_CUT)
+    /// (never cut, or cuts not recorded).
+    pub cut: u32,
 }
 
 impl Ref {
+    /// A reference never cut.
+    #[inline]
+    pub fn new(bounds: Aabb, prim: u32) -> Self {
+        Ref {
+            bounds,
+            prim,
+            cut: crate::split::spatial::NO_CUT,
+        }
+    }
+
     /// The centroid of the reference's box on `axis`.
     #[inline]
     pub fn centroid(&self, axis: Axis) -> f32 {

@@ -87,6 +87,7 @@
 mod rule;
 
 use crate::rules::sbvh::{initial_refs, Ctx as SbvhCtx, SbvhConfig, SbvhTask};
+use crate::split::spatial::CutLog;
 use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 use rule::SpatialRated;
@@ -244,9 +245,10 @@ impl Strategy for TsahSpatialConfig {
 
     fn build_tree(&self, input: &BuildInput) -> Result<Bvh, BuildError> {
         let refs = initial_refs(input, None);
+        let log = CutLog::default();
         let greedy = SbvhCtx::new(input, self.sbvh, &refs);
         let rule = SpatialRated {
-            greedy,
+            greedy: greedy.logging(&log),
             temporary: greedy.with_config(self.temporary),
             cfg: *self,
         };

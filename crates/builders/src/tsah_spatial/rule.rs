@@ -6,7 +6,9 @@ use sahara_geom::Aabb;
 
 use super::{TemporarySearch, TsahSpatialConfig};
 use crate::cost_only;
-use crate::rules::sbvh::{decide, decide_with, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask};
+use crate::rules::sbvh::{
+    decide, decide_with, leaf_cuts, ref_cuts, spatial_allowed, Ctx, Decision, SbvhRule, SbvhTask,
+};
 use crate::split::half_area;
 use crate::split::object::{
     apply_object, refs_bounds, ObjectCand, ObjectScratch, ObjectSearch, Ref,
@@ -51,15 +53,18 @@ impl Rule for SpatialRated<'_> {
             return t.step(bounds, d);
         }
         let (search, cands) = self.candidates(&t.refs, &bounds, area, t.depth, t.budget, scratch);
-        let apply = |c: &Candidate| match c {
+        // The ratings apply candidates without recording cuts; the chosen one is applied
+        // again with the log.
+        let rating_ctx = g.unlogged();
+        let apply = |ctx: &Ctx, c: &Candidate| match c {
             Candidate::Object(o) => Some(apply_object(&t.refs, &search, o)),
-            Candidate::Spatial(s) => g.apply_spatial(&t.refs, s),
+            Candidate::Spatial(s) => ctx.apply_spatial(&t.refs, s, t.depth),
         };
         // Rate every candidate with cost-only temporaries over both sides.
         let ratings: Vec<Option<f64>> = cands
             .par_iter()
             .map(|c| {
-                let (l, r) = apply(c)?;
+                let (l, r) = apply(&rating_ctx, c)?;
                 let (tl, tr) = t.children(l, r);
                 let (a, b) = rayon::join(|| self.temporary(tl), || self.temporary(tr));
                 Some(g.cost.inner_cost(area, a.1, a.0, b.1, b.0))
@@ -78,12 +83,20 @@ impl Rule for SpatialRated<'_> {
         if n <= g.cfg.max_leaf_size && g.cost.leaf_cost(n) <= best_cost {
             return t.step(bounds, Decision::Leaf);
         }
-        let (left, right) = apply(&cands[best]).expect("rated candidates apply");
+        let (left, right) = apply(g, &cands[best]).expect("rated candidates apply");
         t.step(bounds, Decision::Split(left, right))
     }
 
     fn leaf_refs(&self, t: &SbvhTask, out: &mut Vec<u32>) {
         out.extend(t.refs.iter().map(|r| r.prim));
+    }
+
+    fn leaf_cuts(&self, t: &SbvhTask, out: &mut Vec<u32>) {
+        leaf_cuts(&self.greedy, t, out)
+    }
+
+    fn ref_cuts(&self, heads: &[u32]) -> Option<sahara_bvh::RefCuts> {
+        ref_cuts(&self.greedy, heads)
     }
 
     fn parallel_threshold(&self) -> usize {

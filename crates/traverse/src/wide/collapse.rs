@@ -16,6 +16,7 @@ use sahara_geom::intersect::is_degenerate;
 use sahara_geom::{Aabb, Triangle};
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 /// Most references in one wide leaf.
 const LEAF_MAX: usize = 4 * MAX_LEAF_PACKETS;
@@ -531,6 +532,7 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
             max_stack: 1,
             backend,
             precision: Precision::Exact,
+            cuts: None,
         };
     }
     let n = bvh.nodes.len();
@@ -544,8 +546,19 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
         refs: &refs,
         par_refs: par.refs,
         blocks: (0..n).map(|_| AtomicU64::new(0)).collect(),
+        leaves: None,
+        inner: None,
+    };
+    let layout = match (&bvh.ref_cuts, &tris) {
+        (Some(_), Source::Triangles(_)) => Layout {
+            leaves: Some(Mutex::default()),
+            inner: Some(Mutex::default()),
+            ..layout
+        },
+        _ => layout,
     };
     let (nodes, packets, root) = layout.write();
+    let cuts = layout.cut_records(packets.len(), nodes.len(), root);
     assert!(
         nodes.len() < LEAF_BIT as usize,
         "too many wide nodes ({})",
@@ -560,6 +573,42 @@ fn collapse_with<const W: usize>(bvh: &Bvh, tris: Source<'_>, par: Par) -> WideB
         max_stack,
         backend,
         precision: Precision::Exact,
+        cuts,
+    }
+}
+
+/// The cut records of a wide tree ([`Bvh::ref_cuts`] carried through the collapse), so that
+/// a refit gives every child box of the binary node it stands for, clipped as the builder
+/// clipped it: the binary references each wide leaf stands for (a wide leaf is a binary
+/// subtree whose references were deduplicated into its packets) and the depth of the binary
+/// node behind every slot (a binary node's box also holds the boxes its split cut, which a
+/// refit adds to the deepest slot whose binary node is that node or an ancestor of it).
+#[derive(Clone, Debug)]
+pub(crate) struct WideCuts {
+    /// The references of the leaf whose packets are `first..first + n` are
+    /// `start[first]..start[first + n]` (only a leaf's first packet has any; a leaf without
+    /// any, the part of a binary leaf of more than [`LEAF_MAX`] references, refits with whole
+    /// triangle bounds).
+    pub start: Vec<u32>,
+    /// The references' triangles.
+    pub prims: Vec<u32>,
+    /// The references' cuts.
+    pub cuts: sahara_bvh::RefCuts,
+    /// The binary depth of the node behind slot `k` of wide node `i`, at `i * W + k`
+    /// ([`Cut::NO_DEPTH`](sahara_bvh::Cut::NO_DEPTH) for the slots of the nodes that split
+    /// oversized leaves); the last entry is the root's (0).
+    pub depth: Vec<u32>,
+}
+
+impl WideCuts {
+    /// The references of the leaf whose packets are `first..first + n`.
+    pub fn leaf_refs(&self, first: usize, n: usize) -> std::ops::Range<usize> {
+        self.start[first] as usize..self.start[first + n] as usize
+    }
+
+    /// Bytes of the records.
+    pub fn memory_bytes(&self) -> usize {
+        (self.start.len() + self.prims.len() + self.depth.len()) * 4 + self.cuts.memory_bytes()
     }
 }
 
@@ -688,6 +737,11 @@ struct Layout<'a, const W: usize> {
     par_refs: u64,
     /// [`Shape::pack`]ed block shapes, by binary node (set by [`Layout::count`]).
     blocks: Vec<AtomicU64>,
+    /// With cut records: `(first packet, binary node)` of every wide leaf written.
+    leaves: Option<Mutex<Vec<(u32, u32)>>>,
+    /// With cut records: `(wide node, binary node)` of every wide node but the root (which
+    /// stands for binary node 0) and those that split oversized leaves.
+    inner: Option<Mutex<Vec<(u32, u32)>>>,
 }
 
 /// One wide inner node still to write: its binary node, its slot, and exactly the memory of
@@ -775,6 +829,64 @@ impl<const W: usize> Layout<'_, W> {
             })
         };
         (nodes.expect("written above"), packets, root)
+    }
+
+    /// The wide tree's cut records (`None` without [`Layout::leaves`]), for a tree of
+    /// `packets` packets and `nodes` nodes whose root is `root`: each recorded leaf's binary
+    /// references in depth-first order, and the binary depth behind every slot.
+    fn cut_records(&self, packets: usize, nodes: usize, root: u32) -> Option<WideCuts> {
+        let from = self.bvh.ref_cuts.as_ref()?;
+        let mut leaves = std::mem::take(&mut *self.leaves.as_ref()?.lock().expect("leaves"));
+        leaves.sort_unstable();
+        let mut inner = std::mem::take(&mut *self.inner.as_ref()?.lock().expect("inner"));
+        if root & LEAF_BIT == 0 {
+            inner.push((root, 0));
+        }
+        // Children come after their parent: one forward pass gives every binary depth.
+        let mut bdepth = vec![0u32; self.bvh.nodes.len()];
+        for (i, n) in self.bvh.nodes.iter().enumerate() {
+            if !n.is_leaf() {
+                bdepth[i + 1] = bdepth[i] + 1;
+                bdepth[n.index as usize] = bdepth[i] + 1;
+            }
+        }
+        let mut depth = vec![sahara_bvh::Cut::NO_DEPTH; nodes * W + 1];
+        depth[nodes * W] = 0;
+        for &(i, bin) in &inner {
+            for (k, &c) in self.kids(bin as usize).as_slice().iter().enumerate() {
+                depth[i as usize * W + k] = bdepth[c];
+            }
+        }
+        let mut out = WideCuts {
+            start: Vec::with_capacity(packets + 1),
+            prims: Vec::new(),
+            cuts: sahara_bvh::RefCuts::new(),
+            depth,
+        };
+        let mut todo = Vec::new();
+        let mut next = leaves.iter().peekable();
+        for p in 0..packets {
+            out.start.push(out.prims.len() as u32);
+            let Some(&(_, bin)) = next.next_if(|l| l.0 as usize == p) else {
+                continue;
+            };
+            todo.push(bin as usize);
+            while let Some(i) = todo.pop() {
+                let node = &self.bvh.nodes[i];
+                if node.is_leaf() {
+                    let first = node.index as usize;
+                    for slot in first..first + node.count as usize {
+                        out.prims.push(self.bvh.prim_indices[slot]);
+                        out.cuts.push(from.get(slot));
+                    }
+                } else {
+                    todo.push(node.index as usize);
+                    todo.push(i + 1);
+                }
+            }
+        }
+        out.start.push(out.prims.len() as u32);
+        Some(out)
     }
 
     fn write_root(
@@ -959,6 +1071,9 @@ impl<const W: usize> Layout<'_, W> {
                 self.leaf(c, &mut s.node_prims[start..ends[k]], &mut out)
             } else {
                 let (i, child_slot) = out.node();
+                if let Some(l) = &self.inner {
+                    l.lock().expect("inner").push((i, c as u32));
+                }
                 inner[m] = (c, Some(child_slot));
                 m += 1;
                 i
@@ -990,6 +1105,10 @@ impl<const W: usize> Layout<'_, W> {
             );
         }
         let bounds = self.bvh.nodes[bin].bounds();
+        if let (Some(leaves), true) = (&self.leaves, prims.len() <= LEAF_MAX) {
+            let mut l = leaves.lock().expect("leaves");
+            l.push((out.pbase as u32, bin as u32));
+        }
         if prims.len() > LEAF_MAX {
             // Sort along the longest axis so that the sub-leaves have tight boxes.
             let axis = bounds.largest_axis();
@@ -1372,6 +1491,7 @@ mod tests {
             nodes,
             prim_indices: bvh.prim_indices.clone(),
             spatial_splits: bvh.spatial_splits,
+            ref_cuts: None,
         }
     }
 

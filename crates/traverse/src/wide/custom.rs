@@ -9,7 +9,7 @@
 //! loop) and the portable one elsewhere or when [`Backend::Portable`] is asked for: with a
 //! user callback per primitive the box tests are not what limits the speed.
 
-use super::collapse::{self, Source};
+use super::collapse::{self, Source, WideCuts};
 use super::kernel::{
     descend_any, descend_closest, enter, widen, FixedStack, Kernel, PacketHits, RayData, Stack,
     VecStack, FIXED_STACK,
@@ -17,7 +17,7 @@ use super::kernel::{
 use super::{decode_leaf, Backend, TriPacket, WideBvh, LEAF_BIT, NO_ROOT};
 use crate::custom::{offer, MixedPrims, PrimHit, UserPrims};
 use crate::{Hit, TraversalStats};
-use sahara_bvh::{Bvh, RefitError};
+use sahara_bvh::{replay_cuts, Bvh, Cut, RefitError};
 use sahara_geom::intersect::intersect_triangle;
 use sahara_geom::{Aabb, Ray, Triangle};
 
@@ -787,9 +787,14 @@ impl<const W: usize> WideBvh<W> {
     /// lane) is kept.
     ///
     /// Refitting with unchanged triangles is the identity, bit for bit, for trees collapsed
-    /// from binary trees without spatial splits; with spatial splits the leaves' clipped boxes
-    /// become the triangles' whole bounds (correct, looser; see [`Bvh::refit`]). On error the
-    /// tree is left unchanged.
+    /// from any builder's binary tree. With spatial splits, a leaf's box is the union of its
+    /// binary references' boxes, each its triangle clipped again by the reference's recorded
+    /// cuts ([`Bvh::refit_triangles`], [`Bvh::ref_cuts`]): unmoved triangles give the clipped
+    /// boxes of the build, moved ones boxes that still hold every part of the triangle a ray
+    /// can hit there (a leaf may become [`Aabb::EMPTY`], which no ray reaches). Trees
+    /// collapsed from spatial-split trees without cut records (loaded from version-1 files),
+    /// and binary leaves of more than 32 references, refit with the triangles' whole bounds
+    /// (correct, looser). On error the tree is left unchanged.
     pub fn refit_triangles(&mut self, tris: &[Triangle]) -> Result<(), RefitError> {
         for (i, t) in tris.iter().enumerate() {
             if !t.is_finite() && self.references(i as u32) {
@@ -828,6 +833,16 @@ impl<const W: usize> WideBvh<W> {
         if self.root == NO_ROOT {
             return Ok(());
         }
+        let own = match (&self.cuts, &src) {
+            (Some(c), Source::Triangles(t)) => Some(self.cut_boxes(c, t)),
+            _ => None,
+        };
+        // A leaf slot's box: its records' (with them), else its primitives' whole boxes; an
+        // inner slot's: its children's and what the records add.
+        let slot_box = |own: &Option<Vec<Option<Aabb>>>, slot: usize, children: Aabb| match own {
+            Some(o) => o[slot].map_or(children, |b| children.union(&b)),
+            None => children,
+        };
         // Children have larger indices than their parents (they are allocated while the
         // parent is filled): a reverse sweep sees every child first.
         for i in (0..self.nodes.len()).rev() {
@@ -839,7 +854,11 @@ impl<const W: usize> WideBvh<W> {
                 }
                 let c = node.children[s];
                 let b = if c & LEAF_BIT != 0 {
-                    self.refit_leaf(c, &src)
+                    let whole = self.refit_leaf(c, &src);
+                    match own.as_ref().and_then(|o| o[i * W + s]) {
+                        Some(b) => b,
+                        None => whole,
+                    }
                 } else {
                     let child = &self.nodes[c as usize];
                     let mut b = Aabb::EMPTY;
@@ -848,7 +867,7 @@ impl<const W: usize> WideBvh<W> {
                             b.grow_aabb(&child.child_bounds(k));
                         }
                     }
-                    b
+                    slot_box(&own, i * W + s, b)
                 };
                 let rows = [b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z];
                 for (row, v) in out.bounds.iter_mut().zip(rows) {
@@ -858,8 +877,13 @@ impl<const W: usize> WideBvh<W> {
             out.set_order();
             self.nodes[i] = out;
         }
+        let root_slot = self.nodes.len() * W;
         self.root_bounds = if self.root & LEAF_BIT != 0 {
-            self.refit_leaf(self.root, &src)
+            let whole = self.refit_leaf(self.root, &src);
+            match own.as_ref().and_then(|o| o[root_slot]) {
+                Some(b) => b,
+                None => whole,
+            }
         } else {
             let root = &self.nodes[self.root as usize];
             let mut b = Aabb::EMPTY;
@@ -868,12 +892,13 @@ impl<const W: usize> WideBvh<W> {
                     b.grow_aabb(&root.child_bounds(k));
                 }
             }
-            b
+            slot_box(&own, root_slot, b)
         };
         Ok(())
     }
 
-    /// Rewrites the packets of leaf reference `leaf` from `src` and returns their bounds.
+    /// Rewrites the packets of leaf reference `leaf` from `src` and returns their bounds
+    /// (from the cut records, when the tree has them and `src` is triangles).
     fn refit_leaf(&mut self, leaf: u32, src: &Source<'_>) -> Aabb {
         let (first, n) = decode_leaf(leaf);
         let mut b = Aabb::EMPTY;
@@ -887,5 +912,60 @@ impl<const W: usize> WideBvh<W> {
             }
         }
         b
+    }
+
+    /// With cut records: the box each slot (`i * W + k`, the root's last) gets besides its
+    /// children's: a leaf with records its references' replayed boxes, and every slot the boxes
+    /// that cuts made at its binary node or between it and its wide children were applied to
+    /// ([`WideCuts`]); `None` for a leaf slot without records.
+    fn cut_boxes(&self, cuts: &WideCuts, tris: &[Triangle]) -> Vec<Option<Aabb>> {
+        let root_slot = self.nodes.len() * W;
+        let mut own = vec![Some(Aabb::EMPTY); root_slot + 1];
+        if self.root == NO_ROOT {
+            return own;
+        }
+        // (binary depth, slot) of the slots from the root to the current one.
+        let mut path: Vec<(u32, usize)> = Vec::new();
+        let mut stack = vec![(self.root, root_slot, 0usize)];
+        while let Some((c, slot, plen)) = stack.pop() {
+            path.truncate(plen);
+            let d = cuts.depth[slot];
+            if d != Cut::NO_DEPTH {
+                path.push((d, slot));
+            }
+            if c & LEAF_BIT == 0 {
+                let node = &self.nodes[c as usize];
+                for k in 0..W {
+                    if node.valid & (1 << k) != 0 {
+                        stack.push((node.children[k], c as usize * W + k, path.len()));
+                    }
+                }
+                continue;
+            }
+            let (first, n) = decode_leaf(c);
+            let refs = cuts.leaf_refs(first, n);
+            if refs.is_empty() {
+                own[slot] = None;
+                continue;
+            }
+            let mut b = Aabb::EMPTY;
+            for k in refs {
+                let tri = &tris[cuts.prims[k] as usize];
+                b.grow_aabb(&replay_cuts(cuts.cuts.get(k), tri, |cut, before| {
+                    if cut.depth == Cut::NO_DEPTH {
+                        return;
+                    }
+                    if let Some(&(_, s)) = path.iter().rev().find(|(d, _)| *d <= cut.depth) {
+                        if let Some(o) = &mut own[s] {
+                            o.grow_aabb(before);
+                        }
+                    }
+                }));
+            }
+            if let Some(o) = &mut own[slot] {
+                o.grow_aabb(&b);
+            }
+        }
+        own
     }
 }

@@ -72,7 +72,7 @@
 //! use sahara_traverse::{scalar, Backend, Bvh8, NoStats};
 //!
 //! let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))];
-//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 //! let wide = Bvh8::from_bvh(&bvh, &tris);
 //! let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
 //! let hit = wide.closest_hit(&ray, &mut NoStats);
@@ -283,6 +283,9 @@ pub struct WideBvh<const W: usize> {
     pub(crate) backend: Backend,
     /// The triangle test of the queries ([`WideBvh::set_precision`]).
     pub(crate) precision: Precision,
+    /// The leaves' cut records, for trees collapsed from binary trees with
+    /// [`Bvh::ref_cuts`] (refitting clips moved triangles as the builder did).
+    pub(crate) cuts: Option<collapse::WideCuts>,
 }
 
 /// Empty-tree root marker.
@@ -438,7 +441,7 @@ impl<const W: usize> WideBvh<W> {
     /// use sahara_traverse::{brute, Bvh8, NoStats, Precision};
     ///
     /// let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))];
-    /// let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+    /// let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
     /// let mut wide = Bvh8::from_bvh(&bvh, &tris);
     /// wide.set_precision(Precision::Fast);
     /// let ray = Ray::new(Vec3A::new(0.1, 0.2, 0.0), Vec3A::Z, 0.0, f32::INFINITY);
@@ -483,6 +486,31 @@ impl<const W: usize> WideBvh<W> {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<WideNode<W>>()
             + self.packets.len() * std::mem::size_of::<TriPacket>()
+    }
+
+    /// Bytes of the cut records a tree collapsed from a spatial-split tree keeps for refitting
+    /// ([`Bvh::ref_cuts`]; traversal never reads them); 0 for other trees.
+    ///
+    /// ```
+    /// use sahara_builders::{registry, BuildInput, CostModel};
+    /// use sahara_geom::{Triangle, Vec3A};
+    /// use sahara_traverse::Bvh8;
+    ///
+    /// // Long thin diagonal triangles: spatial splits cut them.
+    /// let tris: Vec<Triangle> = (0..64)
+    ///     .map(|i| {
+    ///         let o = Vec3A::new(0.0, i as f32 * 0.1, 0.0);
+    ///         Triangle::new(o, o + Vec3A::new(50.0, 50.0, 0.0), o + Vec3A::new(50.0, 50.05, 0.1))
+    ///     })
+    ///     .collect();
+    /// let input = BuildInput::new(&tris, CostModel::default()).unwrap();
+    /// let sbvh = registry::by_name("sbvh").unwrap().build(&input).unwrap();
+    /// let binned = registry::by_name("binned").unwrap().build(&input).unwrap();
+    /// assert!(Bvh8::from_bvh(&sbvh, &tris).cut_record_bytes() > 0);
+    /// assert_eq!(Bvh8::from_bvh(&binned, &tris).cut_record_bytes(), 0);
+    /// ```
+    pub fn cut_record_bytes(&self) -> usize {
+        self.cuts.as_ref().map_or(0, |c| c.memory_bytes())
     }
 
     /// Bounds of the whole tree (empty for an empty tree).

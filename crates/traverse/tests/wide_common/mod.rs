@@ -148,6 +148,7 @@ pub fn spatial_bvh(tris: &[Triangle], leaf: usize) -> Bvh {
         .collect();
     let mut bvh = Bvh {
         spatial_splits: true,
+        ref_cuts: None,
         ..Bvh::empty()
     };
     if !refs.is_empty() {

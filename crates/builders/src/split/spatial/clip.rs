@@ -6,7 +6,7 @@
 
 use std::ops::RangeInclusive;
 
-use sahara_geom::clip::clipped_bounds;
+pub use sahara_geom::clip::clip_halves;
 use sahara_geom::{Aabb, Axis, Triangle, Vec3A};
 
 use crate::split::BinMap;
@@ -216,30 +216,6 @@ impl<'a> SlabClipper<'a> {
             lower = upper;
         }
     }
-}
-
-/// Bounds of the parts of `tri` inside the two halves of `cur` cut at `pos` on `axis`.
-///
-/// The triangle is clipped to each half box, so a non-empty half touches the triangle. The
-/// clipped polygon's vertices are rounded to `f32`, which may move them off the triangle by
-/// half a unit in the last place: on a triangle that is almost flat along an axis this is
-/// enough for the rounded box to miss the real triangle. Each piece's box is therefore grown
-/// by about two units in the last place and then intersected with its half box again, so that
-/// it stays inside the reference's box and on its side of the plane.
-pub fn clip_halves(tri: &Triangle, axis: Axis, pos: f32, cur: &Aabb) -> (Aabb, Aabb) {
-    let mut lbox = *cur;
-    lbox.max[axis] = lbox.max[axis].min(pos);
-    let mut rbox = *cur;
-    rbox.min[axis] = rbox.min[axis].max(pos);
-    let piece = |half: &Aabb| {
-        let b = clipped_bounds(tri, half);
-        if b.is_empty() {
-            return b;
-        }
-        let slack = |v: Vec3A| v.abs() * (2.0 * f32::EPSILON) + Vec3A::splat(f32::MIN_POSITIVE);
-        Aabb::new(b.min - slack(b.min), b.max + slack(b.max)).intersection(half)
-    };
-    (piece(&lbox), piece(&rbox))
 }
 
 /// Bounds of the parts of `tri` on each side of the plane `x[axis] = pos` (its vertices on

@@ -32,7 +32,7 @@ mod estimate;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 
-pub use apply::{apply_spatial, child_budgets, share_budget};
+pub use apply::{apply_spatial, child_budgets, share_budget, CutLog, NO_CUT};
 pub use clip::{clip_halves, plane_pieces, Clipper, SlabClipper, SplitPrimitive};
 pub use estimate::{estimated_spatial_search, EstimateScratch};
 

@@ -575,10 +575,7 @@ mod tests {
                     } else {
                         full
                     };
-                    Ref {
-                        bounds,
-                        prim: t as u32,
-                    }
+                    Ref::new(bounds, t as u32)
                 })
                 .collect();
             for nb in [2usize, 4, 7, 16, 17, 32, 128] {
