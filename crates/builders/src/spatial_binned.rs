@@ -46,6 +46,7 @@
 //! assert!(bvh.spatial_splits);
 //! ```
 
+use sahara_bvh::RefCuts;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
@@ -56,7 +57,7 @@ use crate::split::binned::{FillBackend, PrimRef};
 use crate::split::half_area;
 use crate::split::object::Ref;
 use crate::split::spatial::{
-    apply_spatial, estimated_spatial_search, share_budget, spatial_search, Clipper,
+    apply_spatial, estimated_spatial_search, share_budget, spatial_search, Clipper, CutLog,
     EstimateScratch, SpatialCand,
 };
 use crate::topdown::{self, Rule, Step};
@@ -178,11 +179,13 @@ impl Strategy for SpatialBinnedConfig {
         );
         let nb = ref_bounds(&slots);
         slots.resize(self.slots_for(n), PrimRef::new(&Aabb::EMPTY, 0));
+        let log = CutLog::default();
         let rule = SpatialBinnedRule {
             clipper: input.clipper(),
             cost: input.cost,
             cfg: *self,
             root_area: half_area(&nb.bounds),
+            log: &log,
         };
         let root = Task {
             slots: &mut slots,
@@ -203,6 +206,8 @@ struct SpatialBinnedRule<'a> {
     cost: CostModel,
     cfg: SpatialBinnedConfig,
     root_area: f64,
+    /// Where the references were cut, for the tree's cut records (refit replays them).
+    log: &'a CutLog,
 }
 
 /// A node still to build: its range of slots (its `n` references first, then the spare slots
@@ -369,6 +374,7 @@ impl<'a> Rule for SpatialBinnedRule<'a> {
                 sc.refs.extend(t.slots[..n].iter().map(|r| Ref {
                     bounds: r.bounds(),
                     prim: r.id(),
+                    cut: r.cut(),
                 }));
                 self.spatial_search(clipper, &sc.refs, &bounds, spare, &mut sc.estimate)
                     .filter(|s| s.cost < oc)
@@ -386,11 +392,12 @@ impl<'a> Rule for SpatialBinnedRule<'a> {
         }
         let slots = t.slots;
         if let Some((clipper, s)) = spatial {
-            if let Some((l, r)) = apply_spatial(clipper, &sc.refs, &s, self.cfg.unsplitting) {
+            let log = Some((self.log, t.depth));
+            if let Some((l, r)) = apply_spatial(clipper, &sc.refs, &s, self.cfg.unsplitting, log) {
                 if l.len() + r.len() <= slots.len() {
                     let put = |dst: &mut [PrimRef], src: &[Ref]| {
                         for (d, r) in dst.iter_mut().zip(src) {
-                            *d = PrimRef::new(&r.bounds, r.prim);
+                            *d = PrimRef::new(&r.bounds, r.prim).with_cut(r.cut);
                         }
                     };
                     let (nl, nr) = (l.len(), r.len());
@@ -439,6 +446,16 @@ impl<'a> Rule for SpatialBinnedRule<'a> {
 
     fn leaf_refs(&self, t: &Task<'a>, out: &mut Vec<u32>) {
         out.extend(t.slots[..t.n].iter().map(PrimRef::id));
+    }
+
+    fn leaf_cuts(&self, t: &Task<'a>, out: &mut Vec<u32>) {
+        if self.clipper.is_some() {
+            out.extend(t.slots[..t.n].iter().map(PrimRef::cut));
+        }
+    }
+
+    fn ref_cuts(&self, heads: &[u32]) -> Option<RefCuts> {
+        self.clipper.as_ref().map(|_| self.log.resolve(heads))
     }
 
     fn parallel_threshold(&self) -> usize {

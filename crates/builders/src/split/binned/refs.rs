@@ -18,7 +18,8 @@ use crate::split::{BinMap, PAR_CHUNK, PAR_NODE_THRESHOLD};
 pub struct PrimRef {
     /// Lower corner `x, y, z`, then the primitive id's bits.
     pub min: [f32; 4],
-    /// Upper corner `x, y, z`, then `0.0`.
+    /// Upper corner `x, y, z`, then `0.0`, or the bits of a spatial-split builder's cut entry
+    /// plus one ([`with_cut`](Self::with_cut)).
     pub max: [f32; 4],
 }
 
@@ -36,6 +37,29 @@ impl PrimRef {
     #[inline]
     pub fn id(&self) -> u32 {
         self.min[3].to_bits()
+    }
+
+    /// The same reference carrying `cut`, the last entry of the build's
+    /// [`CutLog`](crate::split::spatial::CutLog) that cut it
+    /// ([`NO_CUT`](crate::split::spatial::NO_CUT): none), kept in the fourth lane of `max`,
+    /// which no search reads.
+    ///
+    /// # Panics
+    ///
+    /// In debug builds, if `cut` is neither `NO_CUT` nor below `0x7f80_0000` (so that the
+    /// lane always holds a finite, non-negative `f32`).
+    #[inline]
+    pub fn with_cut(mut self, cut: u32) -> Self {
+        let bits = cut.wrapping_add(1);
+        debug_assert!(bits < 0x7f80_0000, "cut entry {cut} out of range");
+        self.max[3] = f32::from_bits(bits);
+        self
+    }
+
+    /// The reference's last cut entry (see [`with_cut`](Self::with_cut)).
+    #[inline]
+    pub fn cut(&self) -> u32 {
+        self.max[3].to_bits().wrapping_sub(1)
     }
 
     /// The primitive's box.
