@@ -763,6 +763,9 @@ fn check_big_scene_inner(data: &[u8]) -> Result<(), String> {
     let entry = &entries[h.builder % entries.len()];
     let n = capped_size(entry, h.size);
     let (mut tris, mut rays) = generate(&h, n);
+    // A hard case comes with its own size: the builder's cap still holds (the first
+    // triangles of the case).
+    tris.truncate(capped_size(entry, usize::MAX));
     // Bounded work for the scenes that come with many rays (hard cases).
     rays.truncate((BRUTE_BUDGET / tris.len().max(1)).clamp(64, 1024));
     apply_edits(&mut tris, &mut rays, &edits(data), h.seed);
