@@ -20,19 +20,28 @@ pub enum Target {
     Bvh,
     /// [`crate::fuzzing::check_scene_bytes`].
     Scene,
+    /// [`crate::expand::check_big_scene`] (scenes expanded from a few bytes).
+    BigScene,
 }
 
 impl Target {
     /// Every target.
-    pub const ALL: [Target; 4] = [Target::Obj, Target::Gltf, Target::Bvh, Target::Scene];
+    pub const ALL: [Target; 5] = [
+        Target::Obj,
+        Target::Gltf,
+        Target::Bvh,
+        Target::Scene,
+        Target::BigScene,
+    ];
 
-    /// The cargo-fuzz target name (`obj`, `gltf`, `bvh_file`, `scene_bytes`).
+    /// The cargo-fuzz target name (`obj`, `gltf`, `bvh_file`, `scene_bytes`, `big_scene`).
     pub fn name(self) -> &'static str {
         match self {
             Target::Obj => "obj",
             Target::Gltf => "gltf",
             Target::Bvh => "bvh_file",
             Target::Scene => "scene_bytes",
+            Target::BigScene => "big_scene",
         }
     }
 
@@ -43,6 +52,7 @@ impl Target {
             Target::Gltf => crate::fuzzing::check_gltf(data),
             Target::Bvh => crate::fuzzing::check_bvh_file(data),
             Target::Scene => crate::fuzzing::check_scene_bytes(data),
+            Target::BigScene => crate::expand::check_big_scene(data),
         }
     }
 }
@@ -901,12 +911,18 @@ pub fn corpus(target: Target) -> Vec<Input> {
             bvh_specials(&mut v);
         }
         Target::Scene => scene_specials(&mut v, 3000),
+        Target::BigScene => v.extend(
+            crate::expand::replay_inputs()
+                .into_iter()
+                .map(|(name, data)| Input { target, name, data }),
+        ),
     }
     v
 }
 
-/// Seed files for `fuzz/corpus/<target>/` (small valid inputs: a few KB in all).
-pub fn seeds() -> Vec<(Target, &'static str, Vec<u8>)> {
+/// Seed files for `fuzz/corpus/<target>/` (small valid inputs, the hard-case suite's small
+/// cases as scene bytes, and the `big_scene` seeds of [`crate::expand::seeds`]).
+pub fn seeds() -> Vec<(Target, String, Vec<u8>)> {
     let mut scene = vec![2u8];
     for x in [
         -1.0f32,
@@ -946,12 +962,41 @@ pub fn seeds() -> Vec<(Target, &'static str, Vec<u8>)> {
     ] {
         scene.extend_from_slice(&x.to_le_bytes());
     }
-    vec![
-        (Target::Obj, "cube.obj", valid_obj()),
-        (Target::Gltf, "tetra.glb", valid_glb()),
-        (Target::Gltf, "tetra.gltf", valid_gltf()),
-        (Target::Bvh, "fixture-binned.bvh", valid_bvh()),
-        (Target::Bvh, "fixture-sbvh.bvh", bvh_file_of("sbvh")),
-        (Target::Scene, "two-triangles-two-rays.bin", scene),
-    ]
+    let mut v = vec![
+        (Target::Obj, "cube.obj".to_string(), valid_obj()),
+        (Target::Gltf, "tetra.glb".to_string(), valid_glb()),
+        (Target::Gltf, "tetra.gltf".to_string(), valid_gltf()),
+        (Target::Bvh, "fixture-binned.bvh".to_string(), valid_bvh()),
+        (
+            Target::Bvh,
+            "fixture-sbvh.bvh".to_string(),
+            bvh_file_of("sbvh"),
+        ),
+        (
+            Target::Scene,
+            "two-triangles-two-rays.bin".to_string(),
+            scene,
+        ),
+    ];
+    // The hard-case suite's small cases (at most 15 triangles) as scene bytes, 64 rays each.
+    for case in crate::cases(crate::Level::Fast) {
+        if case.triangles.len() > 15 {
+            continue;
+        }
+        let mut d = vec![case.triangles.len() as u8];
+        let tris = case.triangles.iter().flat_map(|t| t.v);
+        let rays = case.rays.iter().take(64).flat_map(|r| {
+            let (o, dir) = (r.origin, r.direction());
+            [o.x, o.y, o.z, dir.x, dir.y, dir.z, r.tmin, r.tmax]
+        });
+        for x in tris.flat_map(|p| p.to_array()).chain(rays) {
+            d.extend_from_slice(&x.to_le_bytes());
+        }
+        let name = case.name.replace(['/', '@', ' '], "-");
+        v.push((Target::Scene, format!("hardcase-{name}.bin"), d));
+    }
+    for (name, d) in crate::expand::seeds() {
+        v.push((Target::BigScene, format!("{name}.bin"), d));
+    }
+    v
 }

@@ -12,7 +12,7 @@ use sahara_builders::{registry, BuildError, BuildInput, CostModel};
 use sahara_bvh::Bvh;
 use sahara_geom::{Ray, Triangle, Vec3A};
 use sahara_scene::{parse_gltf, parse_obj, Mesh, SceneError};
-use sahara_traverse::{brute, scalar, Backend, NoStats, WideBvh};
+use sahara_traverse::WideBvh;
 
 use crate::catch_quiet;
 
@@ -157,51 +157,18 @@ fn suspect_class(tris: &[Triangle], ray: &Ray) -> Option<&'static str> {
     None
 }
 
-/// Kernels of the traversal checks: the scalar reference and every wide kernel available.
-/// With `tolerate_known_bugs`, rays [`explained_by_known_bug`] are not compared.
+/// Kernels of the traversal checks: the scalar reference and every wide kernel available, at
+/// both precisions ([`crate::expand::kernels_equal_brute`]). With `tolerate_known_bugs`, rays
+/// [`explained_by_known_bug`] are not compared.
 fn traces_like_brute(
     bvh: &Bvh,
     tris: &[Triangle],
     rays: &[Ray],
     tolerate_known_bugs: bool,
 ) -> Result<(), String> {
-    let w4 = WideBvh::<4>::from_bvh(bvh, tris);
-    let w8 = WideBvh::<8>::from_bvh(bvh, tris);
-    for (i, r) in rays.iter().enumerate() {
-        let expect = brute::closest_hit(tris, r);
-        let expect_any = brute::any_hit(tris, r);
-        let mut got = vec![(
-            "bvh2",
-            scalar::closest_hit(bvh, tris, r, &mut NoStats),
-            scalar::any_hit(bvh, tris, r, &mut NoStats),
-        )];
-        for b in Backend::ALL.into_iter().filter(|b| b.is_available()) {
-            got.push((
-                "bvh4",
-                w4.closest_hit_with(b, r, &mut NoStats),
-                w4.any_hit_with(b, r, &mut NoStats),
-            ));
-            got.push((
-                "bvh8",
-                w8.closest_hit_with(b, r, &mut NoStats),
-                w8.any_hit_with(b, r, &mut NoStats),
-            ));
-        }
-        for (k, h, any) in got {
-            let same = h.prim == expect.prim
-                && h.t.to_bits() == expect.t.to_bits()
-                && h.u.to_bits() == expect.u.to_bits()
-                && h.v.to_bits() == expect.v.to_bits();
-            if (!same || any != expect_any)
-                && !(tolerate_known_bugs && explained_by_known_bug(tris, r).is_some())
-            {
-                return Err(format!(
-                    "{k}: ray {i} ({r:?}) gives {h:?}/{any}, brute force {expect:?}/{expect_any}"
-                ));
-            }
-        }
-    }
-    Ok(())
+    let mut w4 = WideBvh::<4>::from_bvh(bvh, tris);
+    let mut w8 = WideBvh::<8>::from_bvh(bvh, tris);
+    crate::expand::kernels_equal_brute(Some(bvh), &mut w4, &mut w8, tris, rays, tolerate_known_bugs)
 }
 
 /// BVH file loader ([`Bvh::load`]): a typed [`sahara_bvh::LoadError`] or a tree that passes
@@ -209,6 +176,11 @@ fn traces_like_brute(
 /// [`fixture_triangles`] (and has no spatial splits, whose leaves need not cover whole
 /// triangles) must trace exactly like brute force with every kernel.
 pub fn check_bvh_file(data: &[u8]) -> Result<(), String> {
+    check_loaded_bvh(data, &fixture_triangles(), &fixture_rays())
+}
+
+/// [`check_bvh_file`] with the triangles and rays a loaded tree is checked against.
+pub(crate) fn check_loaded_bvh(data: &[u8], tris: &[Triangle], rays: &[Ray]) -> Result<(), String> {
     let loaded = catch_quiet(|| Bvh::load(&mut &data[..]))
         .map_err(|p| format!("Bvh::load panicked: {p}"))?;
     let Ok(bvh) = loaded else {
@@ -217,13 +189,12 @@ pub fn check_bvh_file(data: &[u8]) -> Result<(), String> {
     catch_quiet(|| bvh.validate_structure())
         .map_err(|p| format!("validate_structure panicked: {p}"))?
         .map_err(|e| format!("a loaded tree fails validate_structure: {e}"))?;
-    let tris = fixture_triangles();
     let valid =
-        catch_quiet(|| bvh.validate(&tris)).map_err(|p| format!("validate panicked: {p}"))?;
+        catch_quiet(|| bvh.validate(tris)).map_err(|p| format!("validate panicked: {p}"))?;
     let _ = catch_quiet(|| sahara_metrics::sah(&bvh, &CostModel::default()))
         .map_err(|p| format!("sah panicked: {p}"))?;
     if valid.is_ok() && !bvh.spatial_splits {
-        catch_quiet(|| traces_like_brute(&bvh, &tris, &fixture_rays(), false))
+        catch_quiet(|| traces_like_brute(&bvh, tris, rays, false))
             .map_err(|p| format!("traversal of a valid loaded tree panicked: {p}"))??;
     }
     Ok(())
@@ -251,7 +222,7 @@ pub fn check_scene_bytes(data: &[u8]) -> Result<(), String> {
 
 /// True when a bounds extent exceeds what `Aabb::half_area` can square in `f32` (scenes where
 /// the since-fixed `sah-overflow` made the SAH cost NaN; builders still rate splits in f32).
-fn extent_overflows(tris: &[Triangle]) -> bool {
+pub(crate) fn extent_overflows(tris: &[Triangle]) -> bool {
     let mut b = sahara_geom::Aabb::EMPTY;
     for t in tris {
         b.grow_aabb(&t.bounds());

@@ -43,6 +43,7 @@
 
 mod cases;
 pub mod corpus;
+pub mod expand;
 pub mod floors;
 pub mod fuzzing;
 mod guard;

@@ -10,6 +10,7 @@ use std::cell::Cell;
 use std::time::Instant;
 
 use sahara_hardcases::corpus::{self, Target};
+use sahara_hardcases::expand::OPEN_FINDINGS;
 
 /// Counts the live and peak bytes allocated by the current thread.
 struct Counting;
@@ -69,14 +70,22 @@ fn replay(target: Target) {
         let mut result = Ok(());
         let peak = peak_during(|| result = target.check(&input.data));
         let secs = t.elapsed().as_secs_f64();
-        if let Err(e) = result {
-            failures.push(format!("{}: {e}", input.name));
+        let open = target == Target::BigScene && OPEN_FINDINGS.contains(&input.name.as_str());
+        match result {
+            Err(e) if open && e.contains("oracle:") => {}
+            Err(e) => failures.push(format!("{}: {e}", input.name)),
+            Ok(()) if open => failures.push(format!(
+                "{}: passes now; remove it from expand::OPEN_FINDINGS",
+                input.name
+            )),
+            Ok(()) => {}
         }
         // Loaders may allocate in proportion to the input (a mesh, the parsed JSON), never in
         // proportion to a size field: 16 MB plus 64 bytes per input byte is far below any
         // "4 GB chunk" but above any honest parse of these small files.
+        // (Not for `big_scene`, whose few bytes expand into scenes of many megabytes.)
         let bound = (16 << 20) + 64 * input.data.len();
-        if peak > bound {
+        if peak > bound && target != Target::BigScene {
             failures.push(format!(
                 "{}: allocated {peak} bytes at peak for {} input bytes",
                 input.name,

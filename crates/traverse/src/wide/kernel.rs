@@ -1,6 +1,14 @@
 //! The traversal loops shared by every backend, generic over a [`Kernel`] (the box and
 //! triangle tests) and a [`Stack`].
 
+// The planted bug (`--cfg sahara_planted_bug`, issue 46) is for fuzzing builds only: cargo fuzz
+// sets `--cfg fuzzing`; any other build with it fails here.
+#[cfg(all(
+    any(sahara_planted_bug = "kernel", sahara_planted_bug = "builder"),
+    not(fuzzing)
+))]
+compile_error!("sahara_planted_bug plants a wrong answer: only with --cfg fuzzing (cargo fuzz)");
+
 use super::{decode_leaf, TriPacket, WideBvh, WideNode, LEAF_BIT, NO_ROOT};
 use crate::{Hit, TraversalStats};
 use sahara_geom::intersect::{far_factors, intersect_triangle, lower_distance, WatertightRay};
@@ -113,7 +121,15 @@ impl RayData {
             near = if tn > near { tn } else { near };
             far = if tf < far { tf } else { far };
         }
-        if near <= far {
+        // Test-only (issue 46): `--cfg sahara_planted_bug="kernel"` flips this comparison
+        // (boxes the ray only touches are missed), which the fuzzers must find. Normal builds
+        // fold it away.
+        let touches = if cfg!(sahara_planted_bug = "kernel") {
+            near < far
+        } else {
+            near <= far
+        };
+        if touches {
             Some(near)
         } else {
             None

@@ -3,6 +3,14 @@
 //! axes ([`RefBins`]: SSE2 on x86-64, a scalar twin elsewhere and for tests, bit for bit the
 //! same) and the bounds of a set of them ([`ref_bounds`]).
 
+// The planted bug (`--cfg sahara_planted_bug`, issue 46) is for fuzzing builds only: cargo fuzz
+// sets `--cfg fuzzing`; any other build with it fails here.
+#[cfg(all(
+    any(sahara_planted_bug = "kernel", sahara_planted_bug = "builder"),
+    not(fuzzing)
+))]
+compile_error!("sahara_planted_bug plants a wrong answer: only with --cfg fuzzing (cargo fuzz)");
+
 use rayon::prelude::*;
 use sahara_geom::{Aabb, Vec3A};
 
@@ -476,7 +484,14 @@ impl RefBins {
     fn merge(&mut self, other: &RefBins) {
         for i in 0..3 * self.k {
             for l in 0..3 {
-                self.min[i][l] = min_lane(self.min[i][l], other.min[i][l]);
+                // Test-only (issue 46): `--cfg sahara_planted_bug="builder"` flips this
+                // comparison (the larger lower corner wins): wrong bin boxes on the parallel
+                // path only, which the fuzzers must find. Normal builds fold it away.
+                self.min[i][l] = if cfg!(sahara_planted_bug = "builder") {
+                    max_lane(self.min[i][l], other.min[i][l])
+                } else {
+                    min_lane(self.min[i][l], other.min[i][l])
+                };
                 self.max[i][l] = max_lane(self.max[i][l], other.max[i][l]);
             }
             self.count[i] += other.count[i];
