@@ -1,7 +1,8 @@
 //! Tracing for the sahara BVH toolkit: what turns a tree into measured speed, work per ray
 //! and pictures.
 //!
-//! * [`Camera`]: a pinhole camera and its primary rays through pixel centres;
+//! * [`Camera`]: the workspace's one pinhole camera (`sahara_geom::Camera`, re-exported) and
+//!   its primary rays through pixel centres;
 //! * [`RaySet`]: deterministic ray sets of a [`RayKind`] — primary rays, one cosine-weighted
 //!   diffuse bounce from each primary hit, short ambient-occlusion rays — each ray seeded by
 //!   `(seed, pixel)` ([`ray_rng`]) so a set is bit-identical on any number of threads;
@@ -59,7 +60,6 @@
 #![warn(missing_docs)]
 
 mod batch;
-mod camera;
 mod error;
 mod files;
 mod placement;
@@ -73,7 +73,6 @@ pub use batch::{
     trace_any_into, trace_closest, trace_closest_counted, trace_closest_into, trace_set,
     trace_set_counted, work_total, CountedTrace, TraceResults, WorkPerRay,
 };
-pub use camera::Camera;
 pub use error::TraceError;
 pub use files::{
     decode_hits, decode_rays, encode_hits, encode_rays, read_hits, read_rays, write_hits,
@@ -87,6 +86,7 @@ pub use rays::{
 pub use render::{
     colour_ramp, heat_map, shade, HeatMap, PixelWork, RgbImage, Shading, MISS_COLOUR,
 };
+pub use sahara_geom::{Camera, CameraFrame};
 pub use sahara_traverse::{Backend, Hit, WorkCounters};
 pub use timing::{measure, mrays_per_s, Throughput, Timing};
 pub use tracer::{
