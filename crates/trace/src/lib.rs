@@ -18,6 +18,8 @@
 //!   Mrays/s ([`Timing::mrays_per_s`]);
 //! * images ([`shade`], [`heat_map`] of work per pixel) written as PNG
 //!   ([`RgbImage::write_png`]);
+//! * [`weighted`]: the ray-weighted metrics of primary rays (frustum SAH, occluded SAH,
+//!   visible EPO), the camera's rays traced by the reference kernel;
 //! * ray files and hit files ([`read_rays`], [`write_rays`], [`read_hits`], [`write_hits`]),
 //!   with typed errors ([`TraceError`]) naming the file.
 //!
@@ -67,6 +69,7 @@ mod rays;
 mod render;
 mod timing;
 mod tracer;
+pub mod weighted;
 
 pub use batch::{
     checksum, checksum_occlusion, hit_count, occluded_count, trace_any, trace_any_counted,
