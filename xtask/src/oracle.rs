@@ -128,7 +128,7 @@ pub fn run(a: Args) -> Result<()> {
             let oracle = oracle_for(tris);
             let bvh = sweep(tris)?;
             let tracer = Bvh2Tracer::new(&bvh, tris);
-            let camera = crate::engine::trace_camera(&scene.camera);
+            let camera = scene.camera;
             for kind in [
                 RayKind::Primary,
                 RayKind::Diffuse,

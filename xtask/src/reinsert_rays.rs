@@ -6,7 +6,7 @@
 //! here, and the reinsertion only gets a node weight `w(box)` (a closure) to lower
 //! `Σ_inner w(box)`: `sahara_builders::reinsert::optimize_for`.
 
-use crate::{engine, util};
+use crate::util;
 use anyhow::{Context, Result};
 use sahara_builders::reinsert::{self, ReinsertConfig};
 use sahara_builders::{BuildInput, CostModel};
@@ -140,7 +140,7 @@ pub fn run(a: Args) -> Result<()> {
         let root = sweep.nodes[0].bounds();
         // Test rays: the scene's camera at the test resolution, diffuse with `seed`.
         let reference = Bvh2Tracer::new(&sweep, tris);
-        let camera = engine::trace_camera(&scene.camera);
+        let camera = scene.camera;
         let (test_p, test_d, train_p, train_d, train_sets) = util::with_threads(a.threads, || {
             let test_p = RaySet::primary(&camera, a.width, a.height);
             let hits = trace_closest(&reference, &test_p.rays);
@@ -149,10 +149,8 @@ pub fn run(a: Args) -> Result<()> {
             // across the view, another resolution), diffuse rays with another seed.
             let diag = (root.max - root.min).length();
             let c = &scene.camera;
-            let fwd = (c.target - c.eye).normalize_or_zero();
-            let side = fwd.cross(c.up).normalize_or_zero();
-            let up = side.cross(fwd);
-            let jitter = (side * 0.8 + up * 0.6) * (0.01 * diag);
+            let frame = c.basis();
+            let jitter = (frame.right * 0.8 + frame.up * 0.6) * (0.01 * diag);
             let train_cam = sahara_trace::Camera::new(
                 c.eye + jitter,
                 c.target + jitter * 0.5,

@@ -4,7 +4,8 @@
 //! * the workspace dependency graph of every `Cargo.toml` against the document's
 //!   "Allowed dependencies" section;
 //! * the architecture invariants that a text search can check: builders never see rays,
-//!   metrics never mutate trees, traversal never knows the builder;
+//!   metrics never mutate trees, traversal never knows the builder, one camera, nothing
+//!   re-implements traversal;
 //! * the builder registry: unique names, each builder reporting its registered name;
 //! * the code map names every crate and every top-level module;
 //! * the xtask's commands: one module per command, named after it, none using another, and
@@ -445,6 +446,96 @@ fn traversal_never_knows_the_builder() {
         hits.is_empty(),
         "docs/ARCHITECTURE.md: traversal never knows the builder; outside `#[cfg(test)]` code, \
          remove these from crates/traverse/src:\n{}\n",
+        hits.join("\n")
+    );
+}
+
+/// `file:line: text` for every code line of the workspace's Rust sources (`crates/`, `xtask/`,
+/// `benches/`, tests and examples included) whose file is not under one of the `allowed` path
+/// prefixes and for which `matches` holds. This file is skipped: it names what it looks for.
+fn find_in_workspace(matches: impl Fn(&str) -> bool, allowed: &[&str]) -> Vec<String> {
+    let mut hits = Vec::new();
+    for dir in ["crates", "xtask", "benches"] {
+        for f in rust_files(&root().join(dir)) {
+            let r = rel(&f);
+            if r == "xtask/src/tidy.rs" || allowed.iter().any(|a| r.starts_with(a)) {
+                continue;
+            }
+            for (n, line) in code_lines(&read(&f)) {
+                if matches(&line) {
+                    hits.push(format!("{r}:{n}: `{}`", line.trim()));
+                }
+            }
+        }
+    }
+    hits
+}
+
+/// Whether a line declares a struct whose name starts with `Camera` (enums such as
+/// `CameraSource` name where a camera came from; they are not cameras).
+fn declares_camera_type(line: &str) -> bool {
+    line.match_indices("struct ").any(|(at, _)| {
+        let before = line[..at].chars().next_back();
+        !before.is_some_and(is_ident_char) && line[at + "struct ".len()..].starts_with("Camera")
+    })
+}
+
+#[test]
+fn one_camera() {
+    // One camera type and one primary-ray generator: `sahara_geom::camera`. A primary-ray
+    // generator is recognised by turning the field of view into the image plane's half
+    // height.
+    let hits = find_in_workspace(
+        |l| {
+            declares_camera_type(l)
+                || has_word(l, "grid_rays")
+                || has_word(l, "CameraGrid")
+                || l.contains("fov_y_degrees.to_radians()")
+        },
+        &["crates/geom/src/camera.rs"],
+    );
+    assert!(
+        hits.is_empty(),
+        "docs/ARCHITECTURE.md: one camera: `sahara_geom::Camera` is the only camera type and its \
+         `CameraFrame` the only primary-ray generator; use them instead of:\n{}\n",
+        hits.join("\n")
+    );
+}
+
+#[test]
+fn nothing_reimplements_traversal() {
+    // The culling interval of a closest-hit walk belongs to the kernels (and to sahara-geom,
+    // which defines it and tests it).
+    let mut hits = find_in_workspace(
+        |l| has_word(l, "cull_distance") || has_word(l, "lower_distance"),
+        &["crates/geom/", "crates/traverse/src/"],
+    );
+    // The binary tree's walks are in `scalar.rs` (their stack is defined in `lib.rs`).
+    hits.extend(find_in_workspace(
+        |l| has_word(l, "NodeStack"),
+        &[
+            "crates/traverse/src/lib.rs",
+            "crates/traverse/src/scalar.rs",
+        ],
+    ));
+    // The crates on the ray side above the kernels, and those below them, test no triangle.
+    hits.extend(find_in_workspace(
+        |l| has_word(l, "intersect_triangle"),
+        // The oracle and the hard cases' own checks are the references that must share no
+        // code with the kernels; the façade's scene tests its triangles in the callback it
+        // hands to a kernel's walk.
+        &[
+            "crates/geom/",
+            "crates/traverse/",
+            "crates/oracle/",
+            "crates/hardcases/",
+            "crates/sahara/src/scene.rs",
+        ],
+    ));
+    assert!(
+        hits.is_empty(),
+        "docs/ARCHITECTURE.md: nothing re-implements traversal: hits come from sahara-traverse's \
+         kernels, whose binary walks are in scalar.rs; remove these:\n{}\n",
         hits.join("\n")
     );
 }

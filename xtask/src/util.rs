@@ -288,7 +288,7 @@ pub fn placed_camera(tris: &[sahara_geom::Triangle]) -> Result<(sahara_scene::Ca
     };
     let c = p.camera;
     Ok((
-        sahara_scene::Camera::new(c.eye, c.target, c.up, c.fov_y_degrees),
+        c,
         format!(
             "placed ({kind}, {:?} up, {:.0}% good rays)",
             up,

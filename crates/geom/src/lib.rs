@@ -6,6 +6,9 @@
 //! * [`Ray`]: origin, direction, `[tmin, tmax]` interval and the direction's reciprocal, which
 //!   its constructor and setters keep equal to it (the direction is private);
 //! * [`Triangle`]: three vertices, with bounds, area, centroid and normal;
+//! * [`Camera`]: the pinhole camera and its primary rays through pixel centres (the one
+//!   primary-ray generator of the workspace, with one documented rule for degenerate cameras),
+//!   the framing of a scene without a camera ([`UpAxis`]) and the command-line camera format;
 //! * [`intersect::intersect_triangle`]: the watertight ray/triangle test of Woop, Benthin and
 //!   Wald (2013);
 //! * [`intersect::intersect_aabb`]: the robust slab test of Ize (2013);
@@ -33,6 +36,7 @@
 #![warn(missing_docs)]
 
 mod aabb;
+pub mod camera;
 pub mod clip;
 pub mod closest;
 pub mod intersect;
@@ -41,6 +45,7 @@ pub mod rng;
 mod triangle;
 
 pub use aabb::Aabb;
+pub use camera::{Camera, CameraBasis, CameraFrame, CameraSpecError, UpAxis};
 pub use glam::{Vec3, Vec3A};
 pub use ray::Ray;
 pub use triangle::Triangle;

@@ -707,9 +707,9 @@ fn non_finite_cases(v: &mut Vec<Case>) {
 // ---------------------------------------------------------------------------------------------
 // Procedural scenes
 
-/// A `n × n` grid of primary rays of a camera ([`Camera::grid_rays`]).
+/// A `n × n` grid of primary rays of a camera ([`Camera::primary_rays`] of an `n × n` image).
 pub fn camera_rays(cam: &Camera, n: u32) -> Vec<Ray> {
-    cam.grid_rays(n)
+    cam.primary_rays(n, n)
 }
 
 fn procedural_cases(level: Level, v: &mut Vec<Case>) {

@@ -61,7 +61,7 @@ pub use guard::catch_quiet;
 pub use runner::{run_case, run_case_with, Options};
 
 use sahara_geom::{Ray, Triangle};
-use sahara_traverse::{Backend, Layout};
+use sahara_traverse::Backend;
 
 /// How much of the suite to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -161,15 +161,6 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    /// The layout the kernel traverses.
-    pub fn layout(self) -> Layout {
-        match self {
-            Kernel::Bvh2 => Layout::Bvh2,
-            Kernel::Bvh4(_) => Layout::Bvh4,
-            Kernel::Bvh8(_) => Layout::Bvh8,
-        }
-    }
-
     /// `bvh2`, or `bvh4-sse2`, `bvh8-avx2`, `bvh8-portable`, ...
     pub fn name(self) -> String {
         match self {

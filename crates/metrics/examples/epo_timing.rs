@@ -7,12 +7,12 @@
 //! Reads a plain OBJ (`v` and `f` lines, polygons fanned; gzip when the name ends in `.gz`),
 //! builds a binned-SAH tree (16 bins, leaves of at most 8 triangles) with the small builder
 //! below, or loads `TREE.bvh` (a tree saved with `Bvh::save` over the same triangles, e.g. a
-//! `sweep` tree), then prints the SAH, the EPO, the primary-ray metrics of a framing camera
-//! on grids of 32, 64 and 128 rows, and the wall-clock time of each.
+//! `sweep` tree), then prints the SAH and the EPO and the wall-clock time of each (the primary-ray metrics
+//! of a camera are `sahara_trace::weighted`'s).
 
 use sahara_bvh::{Bvh, Node};
 use sahara_geom::{Aabb, Triangle, Vec3A};
-use sahara_metrics::{epo_breakdown, primary_ray_metrics, sah, CameraGrid, CostModel};
+use sahara_metrics::{epo_breakdown, sah, CostModel};
 use std::io::{BufRead, BufReader, Read};
 use std::time::Instant;
 
@@ -65,24 +65,6 @@ fn main() {
         t0.elapsed(),
         rayon::current_num_threads()
     );
-
-    // The primary-ray metrics for the default framing camera of sahara-scene (front, slightly
-    // above, 45° vertical field of view), on grids of 32, 64 and 128 rows.
-    let b = bvh.bounds();
-    let eye = b.centroid() + Vec3A::new(0.0, 0.1, 1.0).normalize() * (1.2 * b.extent().length());
-    for rows in [32, 64, 128] {
-        let cam = CameraGrid::new(eye, b.centroid(), Vec3A::Y, 45.0, 1.0, rows, rows);
-        let t0 = Instant::now();
-        let m = primary_ray_metrics(&bvh, &tris, &cost, &cam);
-        println!(
-            "primary {rows}x{rows} ({} hits): frustum SAH {:.4}, occluded SAH {:.4}, visible EPO {:.4} in {:.2?}",
-            m.hits,
-            m.frustum_sah,
-            m.occluded_sah,
-            m.visible_epo,
-            t0.elapsed()
-        );
-    }
 }
 
 fn load_obj(path: &str) -> Vec<Triangle> {

@@ -91,7 +91,7 @@ pub fn epo_breakdown(bvh: &Bvh, tris: &[Triangle], cost: &CostModel) -> EpoBreak
 /// `(1 / A(S)) Σ_n C_n (w_n / w_root) Σ_{t ∉ Q(n)} A(t ∩ box(n))`.
 ///
 /// With all weights equal this is [`epo_breakdown`]; with `w_n` the probability that a ray
-/// of some type reaches `box(n)` (for example [`crate::weighted::CameraGrid::box_weight`]
+/// of some type reaches `box(n)` (for example `sahara_trace::weighted::box_weight`
 /// evaluated by [`crate::weighted::node_weights`]) it discounts foreign surface in nodes that
 /// ray type rarely enters. Returns zeros when `w_root <= 0`.
 ///

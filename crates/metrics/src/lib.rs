@@ -8,8 +8,9 @@
 //! * [`lcv()`]: leaf count variability of traced rays;
 //! * [`SahEpoPredictor`]: the SAH-EPO trace-cost predictor, its least-squares fit per ray type
 //!   and its forecasting error ([`spearman`] rank correlation with ties);
-//! * [`weighted`]: SAH and EPO weighted by a ray type's real distribution (camera frustum,
-//!   visible end points), our reading of the improved primary-ray predictor.
+//! * [`weighted`]: SAH weighted by a ray type's real distribution (per-node weights, ray
+//!   segments), the basis of our reading of the improved primary-ray predictor (whose camera
+//!   and hit-driven parts are `sahara_trace::weighted`).
 //!
 //! `docs/metrics.md` explains the definitions, the algorithms and the predictor fit.
 //!
@@ -42,8 +43,7 @@ pub use predictor::{
 };
 pub use sah::{sah, sah_of_subtree};
 pub use weighted::{
-    camera_box_weight, closest_hits, node_weights, primary_ray_metrics, segment_node_weights,
-    weighted_sah, weighted_sah_from_node_weights, CameraGrid, Hit, PrimaryRayMetrics, SegmentSet,
+    node_weights, segment_node_weights, weighted_sah, weighted_sah_from_node_weights, SegmentSet,
 };
 
 /// The README's examples, compiled and run as doctests.

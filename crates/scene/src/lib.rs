@@ -16,7 +16,9 @@
 //!   triangle counts and checksums from each folder's `manifest.tsv`, and cameras from each
 //!   folder's `cameras.tsv` over those of the named scenes (the repository's
 //!   `scenes/cameras.tsv`, [`named_cameras`]);
-//! * [`Scene`]: a named mesh with its [`SceneSource`] and a default [`Camera`].
+//! * [`Scene`]: a named mesh with its [`SceneSource`] and a default [`Camera`] (the
+//!   workspace's one camera, `sahara_geom::Camera`, re-exported here with [`UpAxis`] and
+//!   [`CameraSpecError`]).
 //!
 //! ```
 //! use sahara_scene::{Catalog, Procedural, SceneError};
@@ -40,7 +42,6 @@
 //! ```
 #![warn(missing_docs)]
 
-mod camera;
 mod catalog;
 mod error;
 mod gltf_load;
@@ -51,7 +52,6 @@ mod procedural;
 mod scene;
 mod shapes;
 
-pub use camera::{Camera, CameraSpecError, UpAxis};
 pub use catalog::{
     default_camera, named_cameras, parse_cameras, parse_manifest, search_dirs, sha256_file,
     workspace_root, Catalog, CatalogEntry, CatalogWarning, EntryKind, ManifestRow, Origin,
@@ -65,6 +65,7 @@ pub use obj::{load_obj, load_obj_gz, parse_obj, read_obj};
 pub use procedural::{
     city, clustered, hairball, soup, sphere_in_box, teapot_stadium, Procedural, DEFAULT_SEED,
 };
+pub use sahara_geom::camera::{Camera, CameraSpecError, UpAxis};
 pub use scene::{CameraSource, Scene, SceneSource};
 pub use shapes::{closed_box, revolve, tessellated_sphere, torus, uv_sphere};
 

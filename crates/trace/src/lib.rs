@@ -1,7 +1,8 @@
 //! Tracing for the sahara BVH toolkit: what turns a tree into measured speed, work per ray
 //! and pictures.
 //!
-//! * [`Camera`]: a pinhole camera and its primary rays through pixel centres;
+//! * [`Camera`]: the workspace's one pinhole camera (`sahara_geom::Camera`, re-exported) and
+//!   its primary rays through pixel centres;
 //! * [`RaySet`]: deterministic ray sets of a [`RayKind`] — primary rays, one cosine-weighted
 //!   diffuse bounce from each primary hit, short ambient-occlusion rays — each ray seeded by
 //!   `(seed, pixel)` ([`ray_rng`]) so a set is bit-identical on any number of threads;
@@ -17,6 +18,8 @@
 //!   Mrays/s ([`Timing::mrays_per_s`]);
 //! * images ([`shade`], [`heat_map`] of work per pixel) written as PNG
 //!   ([`RgbImage::write_png`]);
+//! * [`weighted`]: the ray-weighted metrics of primary rays (frustum SAH, occluded SAH,
+//!   visible EPO), the camera's rays traced by the reference kernel;
 //! * ray files and hit files ([`read_rays`], [`write_rays`], [`read_hits`], [`write_hits`]),
 //!   with typed errors ([`TraceError`]) naming the file.
 //!
@@ -59,7 +62,6 @@
 #![warn(missing_docs)]
 
 mod batch;
-mod camera;
 mod error;
 mod files;
 mod placement;
@@ -67,13 +69,13 @@ mod rays;
 mod render;
 mod timing;
 mod tracer;
+pub mod weighted;
 
 pub use batch::{
     checksum, checksum_occlusion, hit_count, occluded_count, trace_any, trace_any_counted,
     trace_any_into, trace_closest, trace_closest_counted, trace_closest_into, trace_set,
     trace_set_counted, work_total, CountedTrace, TraceResults, WorkPerRay,
 };
-pub use camera::Camera;
 pub use error::TraceError;
 pub use files::{
     decode_hits, decode_rays, encode_hits, encode_rays, read_hits, read_rays, write_hits,
@@ -87,6 +89,7 @@ pub use rays::{
 pub use render::{
     colour_ramp, heat_map, shade, HeatMap, PixelWork, RgbImage, Shading, MISS_COLOUR,
 };
+pub use sahara_geom::{Camera, CameraFrame};
 pub use sahara_traverse::{Backend, Hit, WorkCounters};
 pub use timing::{measure, mrays_per_s, Throughput, Timing};
 pub use tracer::{

@@ -1,6 +1,6 @@
 //! A camera for a scene that has none: placed where its primary rays see what matters.
 //!
-//! Framing a scene's bounding box from outside (`sahara_scene::Camera::framing`) shows
+//! Framing a scene's bounding box from outside ([`Camera::framing`](sahara_geom::Camera::framing)) shows
 //! an object well, but shows a closed scene or a game level as its outer wall: the primary
 //! rays then measure nothing a user cares about. [`place_camera`] looks for a better view
 //! by tracing rays through the scene (it takes any [`Tracer`], so the caller chooses the

@@ -1,6 +1,6 @@
 //! Deterministic ray sets: primary, diffuse and ambient-occlusion rays.
 
-use crate::{batch::trace_closest, camera::CameraFrame, Camera, Tracer};
+use crate::{batch::trace_closest, Camera, Tracer};
 use rayon::prelude::*;
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::Hit;
@@ -197,7 +197,7 @@ impl RaySet {
     pub fn primary(camera: &Camera, width: u32, height: u32) -> Self {
         let n = u32::try_from(u64::from(width) * u64::from(height))
             .expect("image too large: width * height must fit in u32");
-        let frame = CameraFrame::new(camera, width, height);
+        let frame = camera.frame(width, height);
         let mut rays = Vec::new();
         (0..n)
             .into_par_iter()

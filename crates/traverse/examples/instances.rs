@@ -150,7 +150,7 @@ pub fn run(n: usize, rays_side: u32) -> Report {
         .iter()
         .fold(Aabb::EMPTY, |b, x| b.union(x));
     let cam = Camera::framing(&bounds, UpAxis::Y);
-    let mut rays = cam.grid_rays(rays_side);
+    let mut rays = cam.primary_rays(rays_side, rays_side);
     let mut rng = Pcg32::new(9, 4);
     let mut p = || {
         Vec3A::new(

@@ -78,12 +78,9 @@
 //! assert_eq!(Some(hit), custom::brute_closest_hit(&boxes, &ray, sphere));
 //! ```
 
-use crate::{Hit, NodeStack, TraversalStats};
+use crate::{scalar, Hit, TraversalStats};
 use sahara_bvh::Bvh;
-use sahara_geom::intersect::{
-    clamp_to_span, cull_distance, intersect_aabb, intersect_triangle, lower_distance, slab_span,
-    WatertightRay,
-};
+use sahara_geom::intersect::{clamp_to_span, intersect_triangle, slab_span, WatertightRay};
 use sahara_geom::{Aabb, Ray, Triangle};
 
 /// A hit on a user primitive: the reported distance, the primitive and the callback's data.
@@ -228,117 +225,6 @@ pub(crate) fn offer<D>(best: &mut Option<PrimHit<D>>, t: f32, prim: u32, data: D
     }
 }
 
-/// The scalar closest-hit loop over the binary tree, with leaves handled by `leaf(prim, best t)`
-/// returning an accepted `(t, data)`.
-fn bvh2_closest<D, S: TraversalStats>(
-    bvh: &Bvh,
-    ray: &Ray,
-    stats: &mut S,
-    mut leaf: impl FnMut(u32, f32) -> Option<(f32, D)>,
-) -> Option<PrimHit<D>> {
-    let mut best: Option<PrimHit<D>> = None;
-    if bvh.nodes.is_empty() || !ray.is_valid() {
-        return None;
-    }
-    let (o, inv) = (ray.origin, ray.inv_direction());
-    let box_tmin = lower_distance(ray.tmin);
-    let nodes = &bvh.nodes;
-    let best_t = |b: &Option<PrimHit<D>>| b.as_ref().map_or(f32::INFINITY, |h| h.t);
-    intersect_aabb(
-        o,
-        inv,
-        box_tmin,
-        cull_distance(ray.tmax),
-        &nodes[0].bounds(),
-    )?;
-    let mut stack = NodeStack::new();
-    let mut cur = 0usize;
-    loop {
-        let node = &nodes[cur];
-        if node.is_leaf() {
-            stats.leaf();
-            stats.triangles(node.count);
-            for &p in bvh.leaf_prims(node) {
-                if let Some((t, d)) = leaf(p, best_t(&best)) {
-                    offer(&mut best, t, p, d);
-                }
-            }
-        } else {
-            stats.inner();
-            let (l, r) = (cur + 1, node.index as usize);
-            let tmax = cull_distance(best_t(&best).min(ray.tmax));
-            let hl = intersect_aabb(o, inv, box_tmin, tmax, &nodes[l].bounds());
-            let hr = intersect_aabb(o, inv, box_tmin, tmax, &nodes[r].bounds());
-            match (hl, hr) {
-                (Some(tl), Some(tr)) => {
-                    let (near, far) = if tr < tl { (r, l) } else { (l, r) };
-                    stack.push(far as u32);
-                    cur = near;
-                    continue;
-                }
-                (Some(_), None) => {
-                    cur = l;
-                    continue;
-                }
-                (None, Some(_)) => {
-                    cur = r;
-                    continue;
-                }
-                (None, None) => {}
-            }
-        }
-        loop {
-            match stack.pop() {
-                None => return best,
-                Some(n) => {
-                    let n = n as usize;
-                    let tmax = cull_distance(best_t(&best).min(ray.tmax));
-                    if intersect_aabb(o, inv, box_tmin, tmax, &nodes[n].bounds()).is_some() {
-                        cur = n;
-                        break;
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// The scalar any-hit loop over the binary tree: true as soon as `leaf(prim)` is.
-fn bvh2_any<S: TraversalStats>(
-    bvh: &Bvh,
-    ray: &Ray,
-    stats: &mut S,
-    mut leaf: impl FnMut(u32) -> bool,
-) -> bool {
-    if bvh.nodes.is_empty() || !ray.is_valid() {
-        return false;
-    }
-    let (o, inv) = (ray.origin, ray.inv_direction());
-    let (box_tmin, box_tmax) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
-    let mut stack = NodeStack::new();
-    stack.push(0);
-    while let Some(i) = stack.pop() {
-        let node = &bvh.nodes[i as usize];
-        if intersect_aabb(o, inv, box_tmin, box_tmax, &node.bounds()).is_none() {
-            continue;
-        }
-        if node.is_leaf() {
-            stats.leaf();
-            for &p in bvh.leaf_prims(node) {
-                stats.triangles(1);
-                if leaf(p) {
-                    return true;
-                }
-            }
-        } else {
-            stats.inner();
-            stack.push(node.index);
-            stack.push(i + 1);
-        }
-    }
-    false
-}
-
 /// Closest hit on user primitives over the binary tree built from `boxes`: `intersect(ray,
 /// prim, tmin, tmax)` returns the primitive's distance and data, or `None` (see the
 /// [module documentation](self) for what it must guarantee). Invalid rays miss.
@@ -358,7 +244,7 @@ where
     S: TraversalStats,
 {
     let mut prims = UserPrims { boxes, intersect };
-    bvh2_closest(bvh, ray, stats, |p, best| prims.closest(ray, p, best))
+    scalar::closest_walk(bvh, ray, stats, |p, best| prims.closest(ray, p, best))
 }
 
 /// Any hit on user primitives over the binary tree: true when some primitive has a hit under
@@ -373,7 +259,7 @@ where
     S: TraversalStats,
 {
     let mut prims = UserPrims { boxes, intersect };
-    bvh2_any(bvh, ray, stats, |p| prims.any(ray, p))
+    scalar::any_walk(bvh, ray, stats, |p| prims.any(ray, p))
 }
 
 /// The brute-force reference of [`closest_hit`]: every primitive, in index order, under the
@@ -439,7 +325,7 @@ where
 {
     let w = ray.watertight();
     let mut best = Hit::MISS;
-    let found = bvh2_closest(bvh, ray, stats, |p, _| {
+    let found = scalar::closest_walk(bvh, ray, stats, |p, _| {
         let h = triangle_hit(&w, &tris[p as usize], ray, p)?;
         // Only candidates that would change the answer reach the filter.
         (best.is_improved_by(h.t, p) && filter(&h)).then(|| {
@@ -468,7 +354,7 @@ where
     S: TraversalStats,
 {
     let w = ray.watertight();
-    bvh2_any(bvh, ray, stats, |p| {
+    scalar::any_walk(bvh, ray, stats, |p| {
         triangle_hit(&w, &tris[p as usize], ray, p).is_some_and(|h| filter(&h))
     })
 }

@@ -47,7 +47,7 @@ pub use point::PointHit;
 pub use precision::{ParsePrecisionError, Precision};
 pub use sahara_bvh::Bvh;
 pub use stats::{NoStats, TraversalStats, WorkCounters};
-pub use wide::{simd_backend, Backend, Bvh4, Bvh8, Layout, ParseLayoutError, WideBvh, WideNode};
+pub use wide::{simd_backend, Backend, Bvh4, Bvh8, WideBvh, WideNode};
 
 /// The result of a closest-hit query: distance, primitive and barycentrics (`u` weights
 /// vertex 1, `v` vertex 2). A miss has `t = +inf` and `prim = u32::MAX`.

@@ -1,5 +1,8 @@
-//! The scalar reference traversal of the binary BVH.
+//! The scalar reference traversal of the binary BVH: one closest-hit walk and one any-hit walk
+//! of the binary tree ([`closest_hit`], [`any_hit`] on triangles; the same walks run the user
+//! primitives and the filtered queries of [`crate::custom`]).
 
+use crate::custom::{offer, PrimHit};
 use crate::{Hit, NodeStack, TraversalStats};
 use sahara_bvh::Bvh;
 use sahara_geom::{
@@ -19,25 +22,56 @@ pub fn closest_hit<S: TraversalStats>(
     ray: &Ray,
     stats: &mut S,
 ) -> Hit {
-    let mut best = Hit::MISS;
+    let w = ray.watertight();
+    // The ray's own interval, not the current hit: the test's pre-check of the distance
+    // (before the division) is not monotonic in `tmax` near ties, so a tighter bound could
+    // drop a triangle at exactly the current distance.
+    closest_walk(bvh, ray, stats, |p, _| {
+        intersect_triangle(&w, &tris[p as usize], ray.tmin, ray.tmax).map(|h| (h.t, (h.u, h.v)))
+    })
+    .map_or(Hit::MISS, |h| Hit {
+        t: h.t,
+        prim: h.prim,
+        u: h.data.0,
+        v: h.data.1,
+    })
+}
+
+/// Any hit (occlusion): true as soon as one triangle is hit in `[tmin, tmax]`.
+pub fn any_hit<S: TraversalStats>(bvh: &Bvh, tris: &[Triangle], ray: &Ray, stats: &mut S) -> bool {
+    let w = ray.watertight();
+    any_walk(bvh, ray, stats, |p| {
+        intersect_triangle(&w, &tris[p as usize], ray.tmin, ray.tmax).is_some()
+    })
+}
+
+/// The closest-hit walk of the binary tree, the one every binary-tree closest-hit query runs
+/// ([`closest_hit`], the user-primitive and filtered queries of [`crate::custom`], and through
+/// them the façade's and the tracer's): depth-first, nearer child first, children culled
+/// against the current hit. Leaves are handled by `leaf(prim, best t)`, which returns an
+/// accepted `(t, data)`; the best is kept by [`offer`]'s rule (nearer, or as near on a lower
+/// index). Invalid rays miss.
+pub(crate) fn closest_walk<D, S: TraversalStats>(
+    bvh: &Bvh,
+    ray: &Ray,
+    stats: &mut S,
+    mut leaf: impl FnMut(u32, f32) -> Option<(f32, D)>,
+) -> Option<PrimHit<D>> {
+    let mut best: Option<PrimHit<D>> = None;
     if bvh.nodes.is_empty() || !ray.is_valid() {
-        return best;
+        return None;
     }
     let (o, inv) = (ray.origin, ray.inv_direction());
     let box_tmin = lower_distance(ray.tmin);
-    let w = ray.watertight();
     let nodes = &bvh.nodes;
-    if intersect_aabb(
+    let best_t = |b: &Option<PrimHit<D>>| b.as_ref().map_or(f32::INFINITY, |h| h.t);
+    intersect_aabb(
         o,
         inv,
         box_tmin,
         cull_distance(ray.tmax),
         &nodes[0].bounds(),
-    )
-    .is_none()
-    {
-        return best;
-    }
+    )?;
     let mut stack = NodeStack::new();
     let mut cur = 0usize;
     loop {
@@ -46,24 +80,14 @@ pub fn closest_hit<S: TraversalStats>(
             stats.leaf();
             stats.triangles(node.count);
             for &p in bvh.leaf_prims(node) {
-                // The ray's own interval, not the current hit: the test's pre-check of the
-                // distance (before the division) is not monotonic in `tmax` near ties, so a
-                // tighter bound could drop a triangle at exactly the current distance.
-                if let Some(h) = intersect_triangle(&w, &tris[p as usize], ray.tmin, ray.tmax) {
-                    if best.is_improved_by(h.t, p) {
-                        best = Hit {
-                            t: h.t,
-                            prim: p,
-                            u: h.u,
-                            v: h.v,
-                        };
-                    }
+                if let Some((t, d)) = leaf(p, best_t(&best)) {
+                    offer(&mut best, t, p, d);
                 }
             }
         } else {
             stats.inner();
             let (l, r) = (cur + 1, node.index as usize);
-            let tmax = cull_distance(best.t.min(ray.tmax));
+            let tmax = cull_distance(best_t(&best).min(ray.tmax));
             let hl = intersect_aabb(o, inv, box_tmin, tmax, &nodes[l].bounds());
             let hr = intersect_aabb(o, inv, box_tmin, tmax, &nodes[r].bounds());
             match (hl, hr) {
@@ -84,13 +108,12 @@ pub fn closest_hit<S: TraversalStats>(
                 (None, None) => {}
             }
         }
-        // Pop the next node that can still hold a nearer hit.
         loop {
             match stack.pop() {
                 None => return best,
                 Some(n) => {
                     let n = n as usize;
-                    let tmax = cull_distance(best.t.min(ray.tmax));
+                    let tmax = cull_distance(best_t(&best).min(ray.tmax));
                     if intersect_aabb(o, inv, box_tmin, tmax, &nodes[n].bounds()).is_some() {
                         cur = n;
                         break;
@@ -101,14 +124,19 @@ pub fn closest_hit<S: TraversalStats>(
     }
 }
 
-/// Any hit (occlusion): true as soon as one triangle is hit in `[tmin, tmax]`.
-pub fn any_hit<S: TraversalStats>(bvh: &Bvh, tris: &[Triangle], ray: &Ray, stats: &mut S) -> bool {
+/// The any-hit walk of the binary tree, the one every binary-tree any-hit query runs
+/// ([`any_hit`] and [`crate::custom`]'s): true as soon as `leaf(prim)` is. Invalid rays miss.
+pub(crate) fn any_walk<S: TraversalStats>(
+    bvh: &Bvh,
+    ray: &Ray,
+    stats: &mut S,
+    mut leaf: impl FnMut(u32) -> bool,
+) -> bool {
     if bvh.nodes.is_empty() || !ray.is_valid() {
         return false;
     }
     let (o, inv) = (ray.origin, ray.inv_direction());
     let (box_tmin, box_tmax) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
-    let w = ray.watertight();
     let mut stack = NodeStack::new();
     stack.push(0);
     while let Some(i) = stack.pop() {
@@ -120,7 +148,7 @@ pub fn any_hit<S: TraversalStats>(bvh: &Bvh, tris: &[Triangle], ray: &Ray, stats
             stats.leaf();
             for &p in bvh.leaf_prims(node) {
                 stats.triangles(1);
-                if intersect_triangle(&w, &tris[p as usize], ray.tmin, ray.tmax).is_some() {
+                if leaf(p) {
                     return true;
                 }
             }

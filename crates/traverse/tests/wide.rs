@@ -9,7 +9,7 @@ use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
-    brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, Layout, NoStats, Precision, WideBvh,
+    brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, NoStats, Precision, WideBvh,
     WorkCounters,
 };
 use wide_common::*;
@@ -138,19 +138,6 @@ fn backend_names() {
     let w = Bvh8::from_bvh(&median_bvh(&tris, 2), &tris);
     assert_eq!(w.backend(), best);
     eprintln!("SIMD backend: {}", simd_backend());
-}
-
-#[test]
-fn layout_parse_and_display() {
-    for l in Layout::ALL {
-        assert_eq!(l.to_string().parse::<Layout>().unwrap(), l);
-        assert_eq!(l.name().to_uppercase().parse::<Layout>().unwrap(), l);
-    }
-    assert_eq!("bvh8".parse::<Layout>().unwrap().width(), 8);
-    assert_eq!(Layout::Bvh4.to_string(), "bvh4");
-    assert!("bvh16".parse::<Layout>().is_err());
-    assert!("".parse::<Layout>().is_err());
-    assert_eq!(Layout::default(), Layout::Bvh2);
 }
 
 #[test]

@@ -466,7 +466,7 @@ mod tests {
         let scene = crate::util::load_scene("sphere_in_box:3000").unwrap();
         let tris = &scene.triangles;
         let input = BuildInput::new(tris, CostModel::default()).unwrap();
-        let cam = crate::engine::trace_camera(&scene.camera);
+        let cam = scene.camera;
         let set = RaySet::primary(&cam, 48, 32);
         let brute = sahara_trace::BruteTracer::new(tris);
         let want = sahara_trace::trace_set(&brute, &set).checksum();

@@ -21,7 +21,7 @@ mod report;
 #[cfg(feature = "tinybvh")]
 pub mod tinybvh;
 
-pub use rays::{ray_set, trace_camera};
+pub use rays::ray_set;
 pub use report::{measure_trace, report, TraceReport};
 
 use anyhow::{bail, Result};

@@ -251,7 +251,7 @@ mod tests {
         );
         // sahara's kernels over the converted tree give the brute-force hits.
         let t = sahara_trace::WideTracer::<8>::new(&bvh, &scene.triangles);
-        let cam = crate::engine::trace_camera(&scene.camera);
+        let cam = scene.camera;
         let set = RaySet::primary(&cam, 48, 32);
         let brute = sahara_trace::BruteTracer::new(&scene.triangles);
         assert_eq!(
@@ -273,7 +273,7 @@ mod tests {
             .unwrap();
         let reference = Bvh2Tracer::new(&bvh, &scene.triangles);
         let engine = ObvhsTracer::new(&scene.triangles).unwrap();
-        let cam = crate::engine::trace_camera(&scene.camera);
+        let cam = scene.camera;
         for kind in RayKind::ALL {
             let set = RaySet::generate(kind, &cam, 64, 48, &reference, &scene.triangles, 1);
             let m = crate::engine::peers::agreement(&reference, &engine, &set);

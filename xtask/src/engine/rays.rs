@@ -14,7 +14,7 @@ pub fn ray_set(
     height: u32,
     seed: u64,
 ) -> Result<RaySet> {
-    let camera = trace_camera(&scene.camera);
+    let camera = scene.camera;
     match spec.parse::<RayKind>() {
         Ok(kind) => Ok(RaySet::generate(
             kind,
@@ -32,9 +32,4 @@ pub fn ray_set(
             Ok(RaySet::from_rays(RayKind::Primary, rays))
         }
     }
-}
-
-/// The catalog's camera as the tracer's camera type.
-pub fn trace_camera(c: &sahara_scene::Camera) -> sahara_trace::Camera {
-    sahara_trace::Camera::new(c.eye, c.target, c.up, c.fov_y_degrees)
 }

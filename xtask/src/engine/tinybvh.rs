@@ -210,7 +210,7 @@ mod tests {
             .build(&input)
             .unwrap();
         let reference = Bvh2Tracer::new(&bvh, &scene.triangles);
-        let cam = crate::engine::trace_camera(&scene.camera);
+        let cam = scene.camera;
         for quality in [Quality::Build, Quality::BuildHq] {
             let engine = TinyTracer::new(&scene.triangles, quality).unwrap();
             for kind in RayKind::ALL {

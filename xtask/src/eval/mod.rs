@@ -287,7 +287,7 @@ impl Run<'_> {
 
     /// The run's ray sets of the scene, one per ray kind, generated with `reference`.
     fn ray_sets(&self, scene: &LoadedScene, reference: &dyn Tracer) -> Result<Vec<RaySet>> {
-        let camera = engine::trace_camera(&scene.camera);
+        let camera = scene.camera;
         util::with_threads(self.a.threads, || {
             self.kinds
                 .iter()

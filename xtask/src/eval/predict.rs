@@ -12,7 +12,7 @@
 //!   node, so primary rays are weighted by the camera's frustum and secondary rays by where
 //!   they really start and end; α is fitted the same way;
 //! * `camera SAH-EPO` (primary rays only): frustum-weighted SAH and the EPO of the points the
-//!   camera sees (`sahara_metrics::primary_ray_metrics` on a 128-row grid), α fitted.
+//!   camera sees (`sahara_trace::weighted::primary_ray_metrics` on a 128-row grid), α fitted.
 //!
 //! Each predictor is scored against measured time per ray and against work per ray.
 
@@ -111,17 +111,14 @@ pub fn evaluate(
                     continue;
                 };
                 let camera = (kind == "primary").then(|| {
-                    let c = &st.scene.camera;
-                    let grid = sahara_metrics::CameraGrid::with_rows(
-                        c.eye,
-                        c.target,
-                        c.up,
-                        c.fov_y_degrees,
-                        s.width as f32 / s.height as f32,
-                        128,
+                    let aspect = s.width as f32 / s.height as f32;
+                    let grid = sahara_trace::weighted::grid_frame(&st.scene.camera, aspect, 128);
+                    let m = sahara_trace::weighted::primary_ray_metrics(
+                        bvh,
+                        &st.scene.triangles,
+                        &cost,
+                        &grid,
                     );
-                    let m =
-                        sahara_metrics::primary_ray_metrics(bvh, &st.scene.triangles, &cost, &grid);
                     (m.frustum_sah, m.visible_epo)
                 });
                 let weighted = sample.map(|rays| {

@@ -240,7 +240,7 @@ pub fn wide_bench(a: &WideBenchArgs) -> Result<Option<WideBenchReport>> {
         }
     };
     let bounds: Aabb = sahara_trace::scene_bounds(tris);
-    let camera = engine::trace_camera(&scene.camera);
+    let camera = scene.camera;
     let rays = RaySet::primary(&camera, a.width, a.height).rays;
     let hits = rays
         .iter()
@@ -544,7 +544,7 @@ mod tests {
         let dir = temp_dir("kernels");
         let file = dir.join("primary.rays");
         let scene = util::load_scene("sphere_in_box:1000").unwrap();
-        let camera = engine::trace_camera(&scene.camera);
+        let camera = scene.camera;
         let rays = RaySet::primary(&camera, 10, 7).rays;
         sahara_trace::write_rays(&file, &rays).unwrap();
         let path = file.to_str().unwrap();

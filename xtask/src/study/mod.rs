@@ -311,7 +311,7 @@ pub fn run(a: Args) -> Result<()> {
                 let reference = &refs[&rkey];
                 let tracer = sahara_trace::Bvh2Tracer::new(&reference.bvh, tris);
                 let camera = match s.camera {
-                    CameraKind::Catalog => crate::engine::trace_camera(&scene.camera),
+                    CameraKind::Catalog => scene.camera,
                     CameraKind::Outside => outside_camera(tris, &scene.camera),
                 };
                 let eye_inside = inside(tris, camera.eye);

@@ -93,7 +93,6 @@ use crate::{Hit, Precision, TraversalStats};
 use sahara_bvh::Bvh;
 use sahara_geom::{Aabb, Ray, Triangle};
 use std::fmt;
-use std::str::FromStr;
 
 /// A 4-wide BVH (SSE2 kernels on x86-64).
 pub type Bvh4 = WideBvh<4>;
@@ -656,75 +655,6 @@ impl fmt::Display for Backend {
 /// `"portable"` (the name of [`Backend::best`]).
 pub fn simd_backend() -> &'static str {
     Backend::best().name()
-}
-
-/// A tree layout a tracer can run: the binary tree with the scalar kernels, or a wide tree.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Layout {
-    /// The binary [`Bvh`] with the scalar reference kernels ([`crate::scalar`]).
-    #[default]
-    Bvh2,
-    /// [`Bvh4`].
-    Bvh4,
-    /// [`Bvh8`].
-    Bvh8,
-}
-
-impl Layout {
-    /// Every layout.
-    pub const ALL: [Layout; 3] = [Layout::Bvh2, Layout::Bvh4, Layout::Bvh8];
-
-    /// Children per inner node: 2, 4 or 8.
-    pub fn width(self) -> usize {
-        match self {
-            Layout::Bvh2 => 2,
-            Layout::Bvh4 => 4,
-            Layout::Bvh8 => 8,
-        }
-    }
-
-    /// `"bvh2"`, `"bvh4"` or `"bvh8"`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Layout::Bvh2 => "bvh2",
-            Layout::Bvh4 => "bvh4",
-            Layout::Bvh8 => "bvh8",
-        }
-    }
-}
-
-impl fmt::Display for Layout {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// A layout name that is not `bvh2`, `bvh4` or `bvh8`.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ParseLayoutError(pub String);
-
-impl fmt::Display for ParseLayoutError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "unknown layout {:?} (expected bvh2, bvh4 or bvh8)",
-            self.0
-        )
-    }
-}
-
-impl std::error::Error for ParseLayoutError {}
-
-impl FromStr for Layout {
-    type Err = ParseLayoutError;
-
-    /// Parses `bvh2`, `bvh4` or `bvh8` (ASCII case-insensitive).
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Layout::ALL
-            .into_iter()
-            .find(|l| s.eq_ignore_ascii_case(l.name()))
-            .ok_or_else(|| ParseLayoutError(s.to_string()))
-    }
 }
 
 #[cfg(test)]
