@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use crate::split::binned::partition::{median_split, partition};
+use crate::split::binned::partition::split_refs;
 use crate::split::binned::plane::{best_plane, PlaneScratch};
 use crate::split::binned::refs::{ref_bounds, RefBounds};
 pub use crate::split::binned::{FillBackend, PrimRef};
@@ -253,27 +253,7 @@ impl<'a> Rule for BinnedRule<'a> {
             };
         }
         let refs = t.refs;
-        let (mid, lb, rb) = match plane {
-            Some(p) => {
-                let (mid, lc, rc) = partition(refs, &p, &mut scratch.wrong);
-                debug_assert_eq!(mid, p.n_left);
-                (
-                    mid,
-                    RefBounds {
-                        bounds: p.left,
-                        centroids: lc,
-                    },
-                    RefBounds {
-                        bounds: p.right,
-                        centroids: rc,
-                    },
-                )
-            }
-            None => {
-                let mid = median_split(refs, &nb.centroids);
-                (mid, ref_bounds(&refs[..mid]), ref_bounds(&refs[mid..]))
-            }
-        };
+        let (mid, lb, rb) = split_refs(refs, plane.as_ref(), &nb, &mut scratch.wrong);
         debug_assert!(mid > 0 && mid < n);
         let (left, right) = refs.split_at_mut(mid);
         let depth = t.depth + 1;

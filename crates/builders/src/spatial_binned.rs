@@ -50,7 +50,7 @@ use sahara_bvh::RefCuts;
 use sahara_geom::Aabb;
 use sahara_metrics::CostModel;
 
-use crate::split::binned::partition::partition;
+use crate::split::binned::partition::split_refs;
 use crate::split::binned::plane::{best_plane, Plane, PlaneScratch};
 use crate::split::binned::refs::{ref_bounds, RefBounds};
 use crate::split::binned::{FillBackend, PrimRef};
@@ -318,24 +318,6 @@ fn children<'a>(
     )
 }
 
-/// The object median split of the references (for nodes no plane separates, and below the
-/// fallback depth): sorted by centroid on the largest axis of the centroid bounds, then by
-/// id, then by box (a primitive's references have different boxes), so the order is total.
-fn median_split(refs: &mut [PrimRef], cb: &Aabb) -> usize {
-    let axis = cb.largest_axis();
-    let bits = |r: &PrimRef| {
-        let b = r.bounds();
-        [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z].map(f32::to_bits)
-    };
-    refs.sort_unstable_by(|a, b| {
-        a.centroid_on(axis)
-            .total_cmp(&b.centroid_on(axis))
-            .then(a.id().cmp(&b.id()))
-            .then_with(|| bits(a).cmp(&bits(b)))
-    });
-    refs.len() / 2
-}
-
 impl<'a> Rule for SpatialBinnedRule<'a> {
     type Task = Task<'a>;
     type Scratch = Scratch;
@@ -414,27 +396,7 @@ impl<'a> Rule for SpatialBinnedRule<'a> {
                 }
             }
         }
-        let (nl, lb, rb) = match plane {
-            Some(p) => {
-                let (mid, lc, rc) = partition(&mut slots[..n], &p, &mut sc.wrong);
-                debug_assert_eq!(mid, p.n_left);
-                (
-                    mid,
-                    RefBounds {
-                        bounds: p.left,
-                        centroids: lc,
-                    },
-                    RefBounds {
-                        bounds: p.right,
-                        centroids: rc,
-                    },
-                )
-            }
-            None => {
-                let mid = median_split(&mut slots[..n], &nb.centroids);
-                (mid, ref_bounds(&slots[..mid]), ref_bounds(&slots[mid..n]))
-            }
-        };
+        let (nl, lb, rb) = split_refs(&mut slots[..n], plane.as_ref(), &nb, &mut sc.wrong);
         debug_assert!(nl > 0 && nl < n);
         let (left, right) = children(slots, nl, n - nl, lb, rb, depth);
         Step::Split {

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use sahara_geom::{Aabb, Vec3A};
 
 use super::plane::Plane;
-use super::refs::PrimRef;
+use super::refs::{ref_bounds, PrimRef, RefBounds};
 use crate::split::{float_key, PAR_CHUNK, PAR_NODE_THRESHOLD};
 
 /// Nodes of at least this many references are partitioned in parallel (with more than one
@@ -34,18 +34,49 @@ pub fn partition(refs: &mut [PrimRef], p: &Plane, wrong: &mut Vec<u32>) -> (usiz
 /// order is the same). 64 under Miri.
 const PAR_SORT_THRESHOLD: usize = if cfg!(miri) { 64 } else { 1 << 14 };
 
-/// Object median split on the largest axis of the centroid bounds `cb`, by (centroid, index):
-/// sorts the references and returns the size of the left half.
+/// Object median split on the largest axis of the centroid bounds `cb`, by (centroid, index,
+/// box): sorts the references and returns the size of the left half.
 pub fn median_split(refs: &mut [PrimRef], cb: &Aabb) -> usize {
     let axis = cb.largest_axis();
-    // The keys are unique (ids are), so the order does not depend on the algorithm.
-    let key = |r: &PrimRef| ((float_key(r.centroid_on(axis)) as u64) << 32) | r.id() as u64;
+    // The keys are unique (ids are, and the pieces of one primitive that spatial splits make
+    // have different boxes), so the order does not depend on the algorithm.
+    let key = |r: &PrimRef| {
+        let b = r.bounds();
+        (
+            ((float_key(r.centroid_on(axis)) as u64) << 32) | r.id() as u64,
+            [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z].map(f32::to_bits),
+        )
+    };
     if refs.len() > PAR_SORT_THRESHOLD {
         refs.par_sort_unstable_by_key(key);
     } else {
         refs.sort_unstable_by_key(key);
     }
     refs.len() / 2
+}
+
+/// The object split of a node's references `refs` (bounds `nb`) in place: by plane `p` when
+/// there is one ([`partition`]; the sides' bounds from the plane's bins, their centroid bounds
+/// from the partition), else at the object median ([`median_split`]). Returns the size of the
+/// left side and both sides' bounds.
+pub fn split_refs(
+    refs: &mut [PrimRef],
+    p: Option<&Plane>,
+    nb: &RefBounds,
+    wrong: &mut Vec<u32>,
+) -> (usize, RefBounds, RefBounds) {
+    match p {
+        Some(p) => {
+            let (mid, lc, rc) = partition(refs, p, wrong);
+            debug_assert_eq!(mid, p.n_left);
+            let side = |bounds, centroids| RefBounds { bounds, centroids };
+            (mid, side(p.left, lc), side(p.right, rc))
+        }
+        None => {
+            let mid = median_split(refs, &nb.centroids);
+            (mid, ref_bounds(&refs[..mid]), ref_bounds(&refs[mid..]))
+        }
+    }
 }
 
 /// Whether a reference goes left of plane `p` (`map.bin(x) < plane`, exactly): for a whole
