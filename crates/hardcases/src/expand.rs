@@ -438,7 +438,7 @@ pub fn apply_edits(tris: &mut [Triangle], rays: &mut Vec<Ray>, edits: &[Edit], s
 
 /// Rays sampled for a scene of `n` triangles: random rays through the scene's box and rays
 /// aimed at vertices and edges of random triangles, as many as brute force affords
-/// ([`BRUTE_BUDGET`]), at least 8.
+/// (`BRUTE_BUDGET`), at least 8.
 pub fn sample_rays(tris: &[Triangle], h: &Header) -> Vec<Ray> {
     let mut rng = Pcg32::new(h.seed as u64, 48);
     let n = tris.len().max(1);
