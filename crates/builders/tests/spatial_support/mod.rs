@@ -30,6 +30,24 @@ pub fn max_leaf(bvh: &Bvh) -> usize {
         .unwrap_or(0)
 }
 
+/// Asserts that `build` makes the same tree, bit for bit, in rayon pools of 1, 2 and 3 threads.
+pub fn assert_same_tree_whatever_the_threads(build: impl Fn() -> Bvh + Sync) {
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| bits(&build()))
+    };
+    let one = run(1);
+    for threads in [2, 3] {
+        assert!(
+            one == run(threads),
+            "trees differ between 1 and {threads} threads"
+        );
+    }
+}
+
 /// Every bit of a tree, to compare trees for bit-identity.
 pub fn bits(bvh: &Bvh) -> Vec<u32> {
     let mut v = Vec::new();
