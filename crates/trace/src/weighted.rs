@@ -22,7 +22,7 @@
 //! use sahara_trace::weighted::{grid_frame, primary_ray_metrics};
 //!
 //! let tris = [Triangle::new(Vec3A::new(-1.0, -1.0, 0.0), Vec3A::new(1.0, -1.0, 0.0), Vec3A::new(0.0, 1.0, 0.0))];
-//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false };
+//! let bvh = Bvh { nodes: vec![Node::leaf(&tris[0].bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
 //! let camera = Camera::new(Vec3A::new(0.0, 0.0, 3.0), Vec3A::ZERO, Vec3A::Y, 60.0);
 //! let m = primary_ray_metrics(&bvh, &tris, &CostModel::AILA, &grid_frame(&camera, 4.0 / 3.0, 24));
 //! assert_eq!(m.rays, 32 * 24);
