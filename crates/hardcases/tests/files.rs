@@ -92,7 +92,10 @@ fn replay(target: Target) {
                 input.data.len()
             ));
         }
-        if secs > 2.0 {
+        // A guard against inputs that hang (a size field driving a loop), not a timing: on
+        // a two-core machine under a load of 12 the slowest inputs took 2.0-2.1 s (a 2 s
+        // limit failed there), so only an order of magnitude beyond that fails.
+        if secs > 20.0 {
             failures.push(format!("{}: took {secs:.1} s", input.name));
         }
         if peak > worst.0 {
