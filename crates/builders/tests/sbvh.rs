@@ -11,28 +11,6 @@ use sahara_metrics::{sah, CostModel};
 mod spatial_support;
 use spatial_support::*;
 
-/// A grid of small triangles crossed by long thin diagonal triangles: object splits cannot
-/// separate the diagonals from the grid, spatial splits can.
-fn needs_spatial() -> Vec<Triangle> {
-    let mut tris = Vec::new();
-    for i in 0..40 {
-        for j in 0..40 {
-            let o = Vec3A::new(i as f32 * 2.5, j as f32 * 2.5, (i + j) as f32 % 3.0);
-            tris.push(Triangle::new(o, o + Vec3A::X * 0.5, o + Vec3A::Y * 0.5));
-        }
-    }
-    for k in 0..100 {
-        let t = k as f32;
-        let a = Vec3A::new(0.0, t, 0.5);
-        let b = Vec3A::new(100.0, 100.0 - t, 1.5);
-        tris.push(Triangle::new(a, b, b + Vec3A::Z * 0.3));
-        let a = Vec3A::new(t, 0.0, 2.0);
-        let b = Vec3A::new(100.0 - t, 100.0, 0.0);
-        tris.push(Triangle::new(a, b, b + Vec3A::X * 0.3));
-    }
-    tris
-}
-
 fn build_with(tris: &[Triangle], config: SbvhConfig, cost: CostModel) -> Bvh {
     let input = BuildInput::new(tris, cost).unwrap();
     let bvh = SbvhBuilder::new(config).build(&input).unwrap();

@@ -10,22 +10,9 @@ use sahara_metrics::{sah, CostModel};
 mod spatial_support;
 use spatial_support::*;
 
-/// A grid of small triangles crossed by long thin diagonal triangles.
-fn needs_spatial() -> Vec<Triangle> {
-    let mut tris = Vec::new();
-    for i in 0..25 {
-        for j in 0..25 {
-            let o = Vec3A::new(i as f32 * 4.0, j as f32 * 4.0, (i + j) as f32 % 3.0);
-            tris.push(Triangle::new(o, o + Vec3A::X * 0.5, o + Vec3A::Y * 0.5));
-        }
-    }
-    for k in 0..50 {
-        let t = 2.0 * k as f32;
-        let a = Vec3A::new(0.0, t, 0.5);
-        let b = Vec3A::new(100.0, 100.0 - t, 1.5);
-        tris.push(Triangle::new(a, b, b + Vec3A::Z * 0.3));
-    }
-    tris
+/// A smaller grid than the other spatial tests': 25 × 25 crossed by 50 diagonals one way.
+fn small_needs_spatial() -> Vec<Triangle> {
+    grid_crossed_by_diagonals(25, 4.0, 50, false)
 }
 
 /// A small threshold, so that small test inputs exercise the rating.
@@ -130,7 +117,7 @@ fn clustered_degenerate_and_flat_inputs() {
 #[test]
 fn sah_never_above_sbvh() {
     for tris in [
-        needs_spatial(),
+        small_needs_spatial(),
         sized_soup(1500, 21, 10.0),
         clustered_centroid(800),
         degenerate_mix(200, 100, 40),
@@ -171,7 +158,7 @@ fn improves_on_sbvh_somewhere() {
 #[test]
 fn no_duplication_without_budget() {
     let mut tris = sized_soup(1000, 61, 10.0);
-    tris.extend(needs_spatial());
+    tris.extend(small_needs_spatial());
     for base in [small(), exact()] {
         let no_budget = SbvhConfig {
             duplication_budget: 0.0,
@@ -203,7 +190,7 @@ fn huge_min_size_is_plain_sbvh() {
 #[test]
 fn deterministic_across_thread_counts() {
     let mut tris = sized_soup(2500, 51, 6.0);
-    tris.extend(needs_spatial());
+    tris.extend(small_needs_spatial());
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     for config in [
         TsahSpatialConfig::DEFAULT,
@@ -268,7 +255,7 @@ fn registry_entry() {
     assert_eq!(e.max_practical_triangles, None);
     let b = (e.make)();
     assert_eq!(b.name(), "tsah-sbvh");
-    let tris = needs_spatial();
+    let tris = small_needs_spatial();
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     b.build(&input).unwrap().validate(&tris).unwrap();
 }
@@ -288,7 +275,7 @@ fn registry_entry_exact() {
     // soup that needs spatial splits it is strictly below (the exact temporaries see splits
     // that sbvh's greedy rule misses).
     let mut tris = sized_soup(1200, 47, 10.0);
-    tris.extend(needs_spatial());
+    tris.extend(small_needs_spatial());
     let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let bvh = b.build(&input).unwrap();
     bvh.validate(&tris).unwrap();

@@ -20,6 +20,42 @@ pub fn degenerate_mix(n_soup: usize, rounds: usize, dups: usize) -> Vec<Triangle
     )
 }
 
+/// A grid of `cells × cells` small triangles `spacing` apart, crossed by `diagonals` long thin
+/// triangles from one side to the other (and as many in the other direction when `crossing`):
+/// object splits cannot separate the diagonals from the grid, spatial splits can.
+pub fn grid_crossed_by_diagonals(
+    cells: usize,
+    spacing: f32,
+    diagonals: usize,
+    crossing: bool,
+) -> Vec<Triangle> {
+    let mut tris = Vec::new();
+    for i in 0..cells {
+        for j in 0..cells {
+            let o = Vec3A::new(i as f32 * spacing, j as f32 * spacing, (i + j) as f32 % 3.0);
+            tris.push(Triangle::new(o, o + Vec3A::X * 0.5, o + Vec3A::Y * 0.5));
+        }
+    }
+    let step = 100.0 / diagonals as f32;
+    for k in 0..diagonals {
+        let t = k as f32 * step;
+        let a = Vec3A::new(0.0, t, 0.5);
+        let b = Vec3A::new(100.0, 100.0 - t, 1.5);
+        tris.push(Triangle::new(a, b, b + Vec3A::Z * 0.3));
+        if crossing {
+            let a = Vec3A::new(t, 0.0, 2.0);
+            let b = Vec3A::new(100.0 - t, 100.0, 0.0);
+            tris.push(Triangle::new(a, b, b + Vec3A::X * 0.3));
+        }
+    }
+    tris
+}
+
+/// The spatial-split builders' common input: a 40 × 40 grid crossed by 100 diagonals each way.
+pub fn needs_spatial() -> Vec<Triangle> {
+    grid_crossed_by_diagonals(40, 2.5, 100, true)
+}
+
 /// The largest leaf of a tree.
 pub fn max_leaf(bvh: &Bvh) -> usize {
     bvh.nodes
