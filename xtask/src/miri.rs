@@ -99,24 +99,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::MIRI_SUITES;
-
     /// Every suite `miri` runs exists, so a renamed test file cannot drop out of it silently.
     #[test]
     fn miri_suites_exist() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        for (package, test) in MIRI_SUITES {
-            let dir = package.strip_prefix("sahara-").expect("a sahara-* package");
-            let file = root
-                .join("crates")
-                .join(dir)
-                .join("tests")
-                .join(format!("{test}.rs"));
-            assert!(
-                file.is_file(),
-                "{package} --test {test}: no {}",
-                file.display()
-            );
-        }
+        crate::util::assert_suites_exist(super::MIRI_SUITES);
     }
 }

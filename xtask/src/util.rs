@@ -302,6 +302,27 @@ pub fn parse_camera(s: &str) -> std::result::Result<sahara_scene::Camera, String
     s.parse::<sahara_scene::Camera>().map_err(|e| e.to_string())
 }
 
+/// Asserts that every `(package, test file)` of a command's suite list exists as
+/// `crates/<package without "sahara-">/tests/<test>.rs`, so that a renamed test file cannot
+/// drop out of `verify` or `miri` silently.
+#[cfg(test)]
+pub fn assert_suites_exist(suites: &[(&str, &str)]) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    for (package, test) in suites {
+        let dir = package.strip_prefix("sahara-").expect("a sahara-* package");
+        let file = root
+            .join("crates")
+            .join(dir)
+            .join("tests")
+            .join(format!("{test}.rs"));
+        assert!(
+            file.is_file(),
+            "{package} --test {test}: no {}",
+            file.display()
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

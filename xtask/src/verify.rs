@@ -53,24 +53,9 @@ const VERIFY_SUITES: &[(&str, &str)] = &[
 
 #[cfg(test)]
 mod tests {
-    use super::VERIFY_SUITES;
-
     /// Every suite `verify` runs exists, so a renamed test file cannot drop out of it silently.
     #[test]
     fn verify_suites_exist() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        for (package, test) in VERIFY_SUITES {
-            let dir = package.strip_prefix("sahara-").expect("a sahara-* package");
-            let file = root
-                .join("crates")
-                .join(dir)
-                .join("tests")
-                .join(format!("{test}.rs"));
-            assert!(
-                file.is_file(),
-                "{package} --test {test}: no {}",
-                file.display()
-            );
-        }
+        crate::util::assert_suites_exist(super::VERIFY_SUITES);
     }
 }
