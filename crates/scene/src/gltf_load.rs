@@ -182,19 +182,7 @@ fn parse_gltf_inner(data: &[u8], file: &Path, base_dir: Option<&Path>) -> Result
         }
     }
 
-    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(SceneError::NonFinite {
-            file: file.to_path_buf(),
-            vertex_index: i,
-            value: mesh.positions[i].to_array(),
-        });
-    }
-    if mesh.indices.is_empty() {
-        return Err(SceneError::Empty {
-            file: file.to_path_buf(),
-        });
-    }
-    Ok(mesh)
+    mesh.checked(file)
 }
 
 fn describe(mesh: &gltf::Mesh<'_>, prim: &gltf::Primitive<'_>) -> String {

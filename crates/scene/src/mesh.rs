@@ -165,6 +165,18 @@ impl Mesh {
         Ok(())
     }
 
+    /// A loader's last step: the mesh when [`Mesh::validate`] passes and it has a triangle,
+    /// else the error naming `file` ([`SceneError::Empty`] for no triangles).
+    pub(crate) fn checked(self, file: &Path) -> Result<Mesh, SceneError> {
+        self.validate(file)?;
+        if self.indices.is_empty() {
+            return Err(SceneError::Empty {
+                file: file.to_path_buf(),
+            });
+        }
+        Ok(self)
+    }
+
     /// Counts triangles, vertices, degenerate triangles and unused vertices, and measures
     /// bounds and areas. Linear in the size of the mesh.
     pub fn stats(&self) -> MeshStats {

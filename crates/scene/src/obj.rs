@@ -131,19 +131,7 @@ pub fn parse_obj(data: &[u8], file: &Path) -> Result<Mesh, SceneError> {
         ));
     }
     // The validation checked every coordinate; this only guards the division by `w`.
-    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(SceneError::NonFinite {
-            file: file.to_path_buf(),
-            vertex_index: i,
-            value: mesh.positions[i].to_array(),
-        });
-    }
-    if mesh.indices.is_empty() {
-        return Err(SceneError::Empty {
-            file: file.to_path_buf(),
-        });
-    }
-    Ok(mesh)
+    mesh.checked(file)
 }
 
 /// What the validation pass learnt about a file that passed it.
