@@ -707,28 +707,15 @@ pub struct ManifestRow {
 pub fn parse_manifest(text: &str, file: &Path) -> (Vec<ManifestRow>, Vec<CatalogWarning>) {
     let mut rows = Vec::new();
     let mut warnings = Vec::new();
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
-    let Some((_, header)) = lines.next() else {
+    let Some((cols, lines)) = tsv(text) else {
         return (rows, warnings);
     };
-    let cols: Vec<String> = header
-        .split('\t')
-        .map(|c| c.trim().to_ascii_lowercase())
-        .collect();
+    let Some([name_col, file_col]) = required(&cols, &["name", "file"], file, &mut warnings) else {
+        return (rows, warnings);
+    };
     let col = |name: &str| cols.iter().position(|c| c == name);
-    let (Some(name_col), Some(file_col)) = (col("name"), col("file")) else {
-        warnings.push(CatalogWarning::MissingColumns {
-            file: file.to_path_buf(),
-            required: &["name", "file"],
-        });
-        return (rows, warnings);
-    };
     let (tri_col, sha_col, lic_col) = (col("triangles"), col("sha256"), col("license"));
-    for (n, line) in lines {
-        let fields: Vec<&str> = line.split('\t').map(str::trim).collect();
+    for (n, fields) in lines {
         let get = |c: Option<usize>| {
             c.and_then(|c| fields.get(c))
                 .filter(|s| !s.is_empty())
@@ -770,6 +757,47 @@ pub fn parse_manifest(text: &str, file: &Path) -> (Vec<ManifestRow>, Vec<Catalog
     (rows, warnings)
 }
 
+/// A data line of a tab-separated catalog file: its index in the file and its trimmed fields.
+type TsvRow<'a> = (usize, Vec<&'a str>);
+
+/// A tab-separated catalog file: the header's column names (trimmed, lower case) and each
+/// later line's index and trimmed fields; blank lines and lines starting with `#` are
+/// skipped. `None` without a header line.
+fn tsv(text: &str) -> Option<(Vec<String>, Vec<TsvRow<'_>>)> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
+    let (_, header) = lines.next()?;
+    let cols = header
+        .split('\t')
+        .map(|c| c.trim().to_ascii_lowercase())
+        .collect();
+    let rows = lines
+        .map(|(n, l)| (n, l.split('\t').map(str::trim).collect()))
+        .collect();
+    Some((cols, rows))
+}
+
+/// The positions of the `names` columns, or `None` with a [`CatalogWarning::MissingColumns`]
+/// pushed when one is missing.
+fn required<const N: usize>(
+    cols: &[String],
+    names: &'static [&'static str; N],
+    file: &Path,
+    warnings: &mut Vec<CatalogWarning>,
+) -> Option<[usize; N]> {
+    let found = names.map(|name| cols.iter().position(|c| c == name));
+    if found.iter().all(Option::is_some) {
+        return Some(found.map(Option::unwrap_or_default));
+    }
+    warnings.push(CatalogWarning::MissingColumns {
+        file: file.to_path_buf(),
+        required: names,
+    });
+    None
+}
+
 fn parse_vec3(s: &str) -> Option<Vec3A> {
     let v: Vec<f32> = s
         .split(',')
@@ -790,33 +818,14 @@ fn parse_vec3(s: &str) -> Option<Vec3A> {
 pub fn parse_cameras(text: &str, file: &Path) -> (Vec<(String, Camera)>, Vec<CatalogWarning>) {
     let mut out = Vec::new();
     let mut warnings = Vec::new();
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
-    let Some((_, header)) = lines.next() else {
+    let Some((cols, lines)) = tsv(text) else {
         return (out, warnings);
     };
-    let cols: Vec<String> = header
-        .split('\t')
-        .map(|c| c.trim().to_ascii_lowercase())
-        .collect();
-    let col = |name: &str| cols.iter().position(|c| c == name);
-    let (Some(name), Some(eye), Some(target), Some(up), Some(fov)) = (
-        col("name"),
-        col("eye"),
-        col("target"),
-        col("up"),
-        col("fov_y_degrees"),
-    ) else {
-        warnings.push(CatalogWarning::MissingColumns {
-            file: file.to_path_buf(),
-            required: &["name", "eye", "target", "up", "fov_y_degrees"],
-        });
+    const COLUMNS: [&str; 5] = ["name", "eye", "target", "up", "fov_y_degrees"];
+    let Some([name, eye, target, up, fov]) = required(&cols, &COLUMNS, file, &mut warnings) else {
         return (out, warnings);
     };
-    for (n, line) in lines {
-        let f: Vec<&str> = line.split('\t').map(str::trim).collect();
+    for (n, f) in lines {
         let get = |c: usize| f.get(c).copied().unwrap_or("");
         let malformed = |column: &'static str, c: usize| CatalogWarning::MalformedRow {
             file: file.to_path_buf(),
@@ -911,6 +920,19 @@ mod tests {
         assert_eq!(rows[1].license, None);
         assert_eq!(rows[2].triangles, None);
         assert_eq!(w.len(), 2, "{w:?}");
+        // Columns in another order and case are found; a missing one is one warning.
+        let (rows, w) = parse_manifest("# c\nFile\tName\nx.obj\tx\n", Path::new("m.tsv"));
+        assert_eq!(
+            (rows[0].name.as_str(), rows[0].file.as_str()),
+            ("x", "x.obj")
+        );
+        assert!(w.is_empty(), "{w:?}");
+        let (rows, w) = parse_manifest("name\tpath\nx\tx.obj\n", Path::new("m.tsv"));
+        assert!(rows.is_empty());
+        assert!(
+            matches!(&w[..], [CatalogWarning::MissingColumns { required, .. }] if required == &["name", "file"]),
+            "{w:?}"
+        );
     }
 
     #[test]
