@@ -40,6 +40,7 @@ fn run_short(args: &Args) -> anyhow::Result<()> {
     let mut cmd = Command::new("cargo");
     cmd.args([
         "test",
+        "--locked",
         "--target",
         &target,
         "--profile",
