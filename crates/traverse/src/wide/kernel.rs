@@ -157,6 +157,15 @@ pub(crate) trait Kernel<const W: usize> {
     /// 16 registers of AVX2); `false` is one flat loop (fewer with SSE2, measured).
     const NESTED_LOOPS: bool = false;
 
+    /// The child order of the closest-hit descent ([`Kernel::descend`]), a speed choice only
+    /// (both give the same answers): `false` pushes the children in the node's stored order
+    /// for the ray's octant ([`descend_ordered`]), `true` sorts them by their entry distances
+    /// for this ray ([`descend_sorted`]). Measured per backend in
+    /// `docs/results/2026-12-07-distance-order/`: the octant order needs fewer instructions
+    /// per ray at every backend, and the distance order is not fewer boxes and triangles on
+    /// every scene, so every backend keeps the octant order.
+    const DISTANCE_ORDER: bool = false;
+
     /// Prepares the ray.
     ///
     /// # Safety
@@ -195,8 +204,9 @@ pub(crate) trait Kernel<const W: usize> {
         out: &mut PacketHits,
     ) -> (u32, u32);
 
-    /// [`descend_ordered`]: pushes the children in `mask` in the node's order for the ray's
-    /// octant and returns the nearest (a backend may do it in SIMD registers).
+    /// Pushes the children in `mask` so that they are popped in the order of
+    /// [`Kernel::DISTANCE_ORDER`] ([`descend_ordered`] or [`descend_sorted`]) and returns the
+    /// nearest (a backend may do it in SIMD registers).
     ///
     /// # Safety
     /// As for [`Kernel::prepare`].
@@ -208,7 +218,11 @@ pub(crate) trait Kernel<const W: usize> {
         rd: &RayData,
         stack: &mut St,
     ) -> Option<u32> {
-        descend_ordered(node, mask, dist, rd, stack)
+        if Self::DISTANCE_ORDER {
+            descend_sorted(node, mask, dist, rd, stack)
+        } else {
+            descend_ordered(node, mask, dist, rd, stack)
+        }
     }
 
     /// Any-hit version of [`Kernel::intersect_packet`]: `(hit mask, fallback mask)`.
@@ -548,6 +562,136 @@ pub(crate) fn descend_closest<const W: usize, St: Stack>(
     stack.pop().map(|e| e.child)
 }
 
+/// An integer whose signed order is the order of the (non-NaN) distances: the bits of `d`,
+/// with the magnitude bits flipped when the sign bit is set (larger negative magnitudes
+/// first). `-0.0` comes just before `+0.0`.
+#[inline(always)]
+pub(crate) fn order_key(d: f32) -> i32 {
+    let b = d.to_bits() as i32;
+    b ^ ((b >> 31) & 0x7fff_ffff)
+}
+
+/// The sorting key of a child with entry distance `d` at position `i` of the node's octant
+/// order for the ray (`i` as in [`descend_ordered`]'s pass, `W - 1` the nearest):
+/// [`order_key`] with its low `log2(W)` bits replaced by `W - 1 - i`. So keys are distinct,
+/// equal distances (boxes that contain the ray's origin all have the entry distance `tmin`)
+/// are ordered by the octant order, and the key carries its position. Only the order of the
+/// children depends on the key (distances within a few ulps may come out in octant order);
+/// the distance pushed with a child is always its own `dist`, so culling stays exact.
+#[inline(always)]
+pub(crate) fn rank_key<const W: usize>(d: f32, i: usize) -> i32 {
+    (order_key(d) & !(W as i32 - 1)) | (W - 1 - i) as i32
+}
+
+/// Batcher's odd–even merge sort of 8 keys: 19 compare-exchanges in 6 layers. Each pair
+/// `(i, j)`, `i < j`, sorts decreasingly (the larger key to `i`); the AVX2 descent does the
+/// same layers with lane permutations.
+pub(crate) const NETWORK8: [(usize, usize); 19] = [
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (1, 2),
+    (5, 6),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+    (2, 4),
+    (3, 5),
+    (1, 2),
+    (3, 4),
+    (5, 6),
+];
+
+/// The optimal network of 4 keys: 5 compare-exchanges in 3 layers.
+pub(crate) const NETWORK4: [(usize, usize); 5] = [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)];
+
+/// Sorts `k` decreasingly with [`NETWORK4`] or [`NETWORK8`] (branch-free: `max`/`min` of
+/// integers), or by insertion for other widths.
+#[inline(always)]
+fn sort_keys_decreasing<const W: usize>(k: &mut [i32; W]) {
+    let net: &[(usize, usize)] = match W {
+        4 => &NETWORK4,
+        8 => &NETWORK8,
+        _ => {
+            k.sort_unstable_by(|a, b| b.cmp(a));
+            return;
+        }
+    };
+    for &(i, j) in net {
+        let (a, b) = (k[i & (W - 1)], k[j & (W - 1)]);
+        k[i & (W - 1)] = a.max(b);
+        k[j & (W - 1)] = a.min(b);
+    }
+}
+
+/// Pushes the children of `node` in `mask` (their entry distances in `dist`) so that they are
+/// popped in increasing order of their entry distances for this ray, ties in the node's octant
+/// order ([`descend_ordered`]), and returns the nearest, which is visited next (not pushed);
+/// `None` for an empty mask. One hit child is returned directly, two are ordered by one
+/// comparison, three or more by a sorting network over the [`rank_key`]s of all `W` slots
+/// (slots not hit get `i32::MIN`, so they sort last and are not pushed). Each child is pushed
+/// with its own entry distance (culling stays exact); the order only changes the speed.
+#[inline(always)]
+pub(crate) fn descend_sorted<const W: usize, St: Stack>(
+    node: &WideNode<W>,
+    mask: u32,
+    dist: &[f32; W],
+    rd: &RayData,
+    stack: &mut St,
+) -> Option<u32> {
+    debug_assert_eq!(mask & !node.valid, 0, "an unused slot's empty box was hit");
+    if mask == 0 {
+        return None;
+    }
+    let i0 = lane::<W>(mask);
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return Some(node.children[i0]);
+    }
+    if rest & (rest - 1) == 0 {
+        let i1 = lane::<W>(rest);
+        let (near, far) = if dist[i1] < dist[i0] {
+            (i1, i0)
+        } else {
+            (i0, i1)
+        };
+        stack.push(Entry {
+            child: node.children[far],
+            dist: dist[far],
+        });
+        return Some(node.children[near]);
+    }
+    let p = node.order_bits(rd.order_q);
+    let x = rd.order_xor & (W - 1);
+    // The slot at position `i` of the octant order's pass (`W - 1` the nearest).
+    let slot = |i: usize| (p >> (3 * (i ^ x))) as usize & (W - 1);
+    let mut k: [i32; W] = std::array::from_fn(|i| {
+        let s = slot(i);
+        if (mask >> s) & 1 != 0 {
+            rank_key::<W>(dist[s], i)
+        } else {
+            i32::MIN
+        }
+    });
+    sort_keys_decreasing(&mut k);
+    let n = mask.count_ones() as usize;
+    let at = |key: i32| slot(W - 1 - (key as usize & (W - 1)));
+    for &key in &k[..n - 1] {
+        let s = at(key);
+        stack.push(Entry {
+            child: node.children[s],
+            dist: dist[s],
+        });
+    }
+    Some(node.children[at(k[(n - 1) & (W - 1)])])
+}
+
 /// Pushes the children of `node` in `mask` so that they are popped near to far in the node's
 /// stored order for the ray's octant (Fuetterling et al. 2017: the order of the child boxes'
 /// centres along the octant's diagonal, precomputed by the collapse), and returns the nearest,
@@ -847,7 +991,7 @@ pub(crate) unsafe fn any_hit<
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use sahara_geom::Vec3A;
 
@@ -892,6 +1036,311 @@ mod tests {
                     "octant {oct}, mask {mask:#x}: {seen:?}"
                 );
             }
+        }
+    }
+
+    /// A distance-sorted descent under test, on a [`VecStack`].
+    pub(crate) type Descent<const W: usize> =
+        unsafe fn(&WideNode<W>, u32, &[f32; W], &RayData, &mut VecStack) -> Option<u32>;
+
+    /// Checks a distance-sorted descent against random distance sets (ties, signed zeros,
+    /// negative and infinite distances), masks, child boxes (so octant orders) and ray octants.
+    fn check_sorted_descent<const W: usize>(what: &str, descend: Descent<W>) {
+        let mut rng = sahara_geom::rng::Pcg32::new(7, W as u64);
+        let mut node = WideNode::<W>::EMPTY;
+        for s in 0..W {
+            node.children[s] = 100 + s as u32;
+        }
+        node.valid = (1 << W) - 1;
+        let mut rd = RayData::new(&Ray::new(Vec3A::ZERO, Vec3A::ONE, 0.0, f32::INFINITY));
+        let pool = [
+            0.0f32,
+            -0.0,
+            1.0,
+            2.5,
+            2.5,
+            -3.0,
+            1e-30,
+            7e5,
+            f32::INFINITY,
+            -1e-3,
+        ];
+        for round in 0..20_000 {
+            if round % 64 == 0 {
+                // New child boxes (hence octant orders) and a ray of a random octant.
+                for s in 0..W {
+                    for a in 0..3 {
+                        let lo = rng.next_f32() * 10.0;
+                        node.bounds[2 * a][s] = lo;
+                        node.bounds[2 * a + 1][s] = lo + rng.next_f32();
+                    }
+                }
+                node.set_order();
+                let d = Vec3A::new(
+                    rng.next_f32() - 0.5,
+                    rng.next_f32() - 0.5,
+                    rng.next_f32() - 0.5,
+                );
+                rd = RayData::new(&Ray::new(Vec3A::ZERO, d, 0.0, f32::INFINITY));
+            }
+            let mask = rng.next_u32() & ((1 << W) - 1);
+            let dist: [f32; W] = std::array::from_fn(|_| {
+                if round % 2 == 0 {
+                    pool[rng.next_u32() as usize % pool.len()]
+                } else {
+                    (rng.next_f32() - 0.25) * 1000.0
+                }
+            });
+            let mut st = VecStack(Vec::new());
+            // A sentinel below: the descent must not touch it.
+            st.push(Entry {
+                child: 7,
+                dist: 42.0,
+            });
+            // SAFETY: the caller passes a descent whose features this CPU has.
+            let first = unsafe { descend(&node, mask, &dist, &rd, &mut st) };
+            let mut seen: Vec<(u32, f32)> = first
+                .map(|c| (c, dist[(c - 100) as usize]))
+                .into_iter()
+                .collect();
+            while let Some(e) = st.pop() {
+                if e.child == 7 {
+                    assert_eq!(e.dist, 42.0);
+                    break;
+                }
+                let s = (e.child - 100) as usize;
+                assert!(s < W, "{what}: child {}", e.child);
+                assert_eq!(
+                    e.dist.to_bits(),
+                    dist[s].to_bits(),
+                    "{what}: pushed distance"
+                );
+                seen.push((e.child, e.dist));
+            }
+            assert_eq!(st.pop().map(|e| e.child), None, "{what}: sentinel");
+            let mut slots: Vec<u32> = seen.iter().map(|&(c, _)| c - 100).collect();
+            slots.sort_unstable();
+            let want: Vec<u32> = (0..W as u32).filter(|s| mask >> s & 1 != 0).collect();
+            assert_eq!(slots, want, "{what}: mask {mask:#x}");
+            // Near to far: exactly, except within the few ulps a rank key drops.
+            let bucket = |d: f32| rank_key::<W>(d, W - 1);
+            assert!(
+                seen.windows(2)
+                    .all(|w| w[0].1 <= w[1].1 || bucket(w[0].1) == bucket(w[1].1)),
+                "{what}: mask {mask:#x}, dist {dist:?}: {seen:?}"
+            );
+            if round % 2 == 1 {
+                assert!(
+                    seen.windows(2).all(|w| w[0].1 <= w[1].1),
+                    "{what}: mask {mask:#x}, dist {dist:?}: {seen:?}"
+                );
+            }
+        }
+    }
+
+    /// The distance-sorted descent (`Kernel::DISTANCE_ORDER`) pops the hit children nearest
+    /// first, each with its own distance, at both widths and with the SIMD versions of every
+    /// backend this CPU runs.
+    #[test]
+    fn sorted_descent_is_near_to_far_with_every_backend() {
+        check_sorted_descent::<4>("scalar bvh4", descend_sorted::<4, VecStack>);
+        check_sorted_descent::<8>("scalar bvh8", descend_sorted::<8, VecStack>);
+        #[cfg(target_arch = "x86_64")]
+        for (what, d) in crate::wide::x86::sorted_descents8() {
+            check_sorted_descent::<8>(what, d);
+        }
+    }
+
+    /// The sorting networks sort every input of zeros and ones (hence every input).
+    #[test]
+    fn networks_sort() {
+        for m in 0..256u32 {
+            let mut k: [i32; 8] = std::array::from_fn(|i| (m >> i & 1) as i32);
+            sort_keys_decreasing(&mut k);
+            assert!(k.windows(2).all(|w| w[0] >= w[1]), "{m:#b}: {k:?}");
+        }
+        for m in 0..16u32 {
+            let mut k: [i32; 4] = std::array::from_fn(|i| (m >> i & 1) as i32);
+            sort_keys_decreasing(&mut k);
+            assert!(k.windows(2).all(|w| w[0] >= w[1]), "{m:#b}: {k:?}");
+        }
+        let keys = [-2.0f32, -1.0, -0.0, 0.0, 1e-40, 1.0, 3.0, f32::INFINITY];
+        assert!(keys.windows(2).all(|w| order_key(w[0]) < order_key(w[1])));
+    }
+
+    /// The probe of [`measure_child_order`]: the portable kernel, whose descent records how
+    /// many children were hit and whether the node's octant order would visit the nearest
+    /// first, then descends by the octant order (`SORTED` false) or by distance.
+    struct Probe<const SORTED: bool>;
+
+    thread_local! {
+        /// Per number of hit children `n` (0..=8): visits, and visits where the octant order's
+        /// first child has the least entry distance.
+        static PROBE: std::cell::RefCell<[[u64; 2]; 9]> = const { std::cell::RefCell::new([[0; 2]; 9]) };
+    }
+
+    impl<const W: usize, const SORTED: bool> Kernel<W> for Probe<SORTED> {
+        type Ray = ();
+        unsafe fn prepare(_: &RayData) {}
+        unsafe fn intersect_node<const NEG: bool>(
+            node: &WideNode<W>,
+            _: &(),
+            rd: &RayData,
+            tfar: f32,
+            dist: &mut [f32; W],
+        ) -> u32 {
+            // SAFETY: the portable kernel needs no CPU feature.
+            unsafe {
+                <crate::wide::portable::Portable as Kernel<W>>::intersect_node::<NEG>(
+                    node,
+                    &(),
+                    rd,
+                    tfar,
+                    dist,
+                )
+            }
+        }
+        unsafe fn intersect_packet<const NEG: bool>(
+            p: &TriPacket,
+            _: &(),
+            rd: &RayData,
+            tfar: f32,
+            out: &mut PacketHits,
+        ) -> (u32, u32) {
+            // SAFETY: as above.
+            unsafe {
+                <crate::wide::portable::Portable as Kernel<W>>::intersect_packet::<NEG>(
+                    p,
+                    &(),
+                    rd,
+                    tfar,
+                    out,
+                )
+            }
+        }
+        unsafe fn occlude_packet<const NEG: bool>(
+            p: &TriPacket,
+            _: &(),
+            rd: &RayData,
+        ) -> (u32, u32) {
+            // SAFETY: as above.
+            unsafe {
+                <crate::wide::portable::Portable as Kernel<W>>::occlude_packet::<NEG>(p, &(), rd)
+            }
+        }
+        unsafe fn descend<St: Stack>(
+            node: &WideNode<W>,
+            mask: u32,
+            dist: &[f32; W],
+            rd: &RayData,
+            stack: &mut St,
+        ) -> Option<u32> {
+            let n = mask.count_ones() as usize;
+            let mut scratch = VecStack(Vec::new());
+            let first = descend_ordered(node, mask, dist, rd, &mut scratch);
+            let least = (0..W)
+                .filter(|&s| mask >> s & 1 != 0)
+                .map(|s| dist[s])
+                .fold(f32::INFINITY, f32::min);
+            let nearest = first.is_some_and(|c| {
+                let s = node.children.iter().position(|&x| x == c).unwrap();
+                dist[s] == least
+            });
+            PROBE.with(|p| {
+                let mut p = p.borrow_mut();
+                p[n.min(8)][0] += 1;
+                p[n.min(8)][1] += nearest as u64;
+            });
+            if SORTED {
+                descend_sorted(node, mask, dist, rd, stack)
+            } else {
+                descend_ordered(node, mask, dist, rd, stack)
+            }
+        }
+    }
+
+    /// Measurement, not a test (`--ignored`): how often the octant order visits the nearest
+    /// hit child first, and the work per ray with the octant order and with the distance
+    /// order, for the scene `SAHARA_ORDER_SCENE` (a catalog name), the builder
+    /// `SAHARA_ORDER_BUILDER` (default `sweep`) and the ray files (written by
+    /// `cargo xtask trace --dump-rays`) in `SAHARA_ORDER_RAYS` (comma-separated).
+    #[test]
+    #[ignore]
+    fn measure_child_order() {
+        let Ok(scene) = std::env::var("SAHARA_ORDER_SCENE") else {
+            return;
+        };
+        let builder = std::env::var("SAHARA_ORDER_BUILDER").unwrap_or_else(|_| "sweep".into());
+        let tris = sahara_scene::Catalog::discover()
+            .load(&scene)
+            .unwrap()
+            .triangles();
+        let input =
+            sahara_builders::BuildInput::new(&tris, sahara_builders::CostModel::default()).unwrap();
+        let bvh = sahara_builders::registry::by_name(&builder)
+            .unwrap()
+            .build(&input)
+            .unwrap();
+        let w = crate::Bvh8::from_bvh(&bvh, &tris);
+        for path in std::env::var("SAHARA_ORDER_RAYS").unwrap().split(',') {
+            let bytes = std::fs::read(path).unwrap();
+            let rays: Vec<Ray> = bytes
+                .chunks_exact(32)
+                .map(|b| {
+                    let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+                    Ray::new(
+                        Vec3A::new(f(0), f(1), f(2)),
+                        Vec3A::new(f(4), f(5), f(6)),
+                        f(3),
+                        f(7),
+                    )
+                })
+                .collect();
+            let mut line = format!("{scene} {builder} {path} rays {}", rays.len());
+            for sorted in [false, true] {
+                PROBE.with(|p| *p.borrow_mut() = [[0; 2]; 9]);
+                let mut c = crate::WorkCounters::default();
+                let mut sum = 0u64;
+                for r in &rays {
+                    let mut buf = FixedStack::buffer();
+                    let mut st = FixedStack::new(&mut buf);
+                    assert!(r.tmin >= 0.0);
+                    // SAFETY: the probe needs no CPU feature; the stack bound fits (checked).
+                    assert!(w.max_stack <= FIXED_STACK);
+                    let h = unsafe {
+                        if sorted {
+                            closest_hit::<Probe<true>, 8, _, _, false>(&w, r, &mut c, &mut st)
+                        } else {
+                            closest_hit::<Probe<false>, 8, _, _, false>(&w, r, &mut c, &mut st)
+                        }
+                    };
+                    sum = sum
+                        .wrapping_mul(31)
+                        .wrapping_add(h.prim as u64 ^ h.t.to_bits() as u64);
+                }
+                let p = PROBE.with(|p| *p.borrow());
+                let n = rays.len() as f64;
+                let visits: u64 = p.iter().map(|x| x[0]).sum();
+                let multi: u64 = p[2..].iter().map(|x| x[0]).sum();
+                let multi_near: u64 = p[2..].iter().map(|x| x[1]).sum();
+                let three: u64 = p[3..].iter().map(|x| x[0]).sum();
+                let three_near: u64 = p[3..].iter().map(|x| x[1]).sum();
+                let hist: Vec<String> = p
+                    .iter()
+                    .map(|x| format!("{:.1}", 100.0 * x[0] as f64 / visits as f64))
+                    .collect();
+                line += &format!(
+                    "\n  {}: inner {:.3} leaves {:.3} tris {:.3} checksum {sum:016x} | octant order nearest first: {:.1}% of visits with 2+ hit children, {:.1}% with 3+ | hit children 0..8 (% of visits): {}",
+                    if sorted { "distance" } else { "octant" },
+                    c.inner as f64 / n,
+                    c.leaves as f64 / n,
+                    c.triangles as f64 / n,
+                    100.0 * multi_near as f64 / multi as f64,
+                    100.0 * three_near as f64 / three as f64,
+                    hist.join(" "),
+                );
+            }
+            println!("{line}");
         }
     }
 }
