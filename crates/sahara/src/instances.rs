@@ -64,7 +64,8 @@ pub struct InstanceHit {
 /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
 /// let mesh = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
 /// let ray = Ray::new(Vec3A::new(0.25, 0.25, 1.0), -Vec3A::Z, 0.0, 5.0);
-/// assert_eq!(BottomLevel::closest_hit(&mesh, &ray), mesh.closest_hit(&ray).unwrap());
+/// let hit = BottomLevel::closest_hit(&mesh, &ray);
+/// assert_eq!(mesh.closest_hit(&ray).map(|h| (h.prim, h.t)), Some((hit.prim, hit.t)));
 /// # Ok::<(), sahara::Error>(())
 /// ```
 impl BottomLevel for Accel {

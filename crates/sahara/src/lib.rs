@@ -5,7 +5,8 @@
 //!   triples) build with a [`Quality`] level or full [`BuildOptions`] (cost model, threads);
 //! * [`Accel::closest_hit`], [`Accel::any_hit`] (occlusion) and the batch queries
 //!   [`Accel::closest_hits`] and [`Accel::any_hits`] (on rayon, results in the order of the
-//!   rays, the same whatever the thread count);
+//!   rays, the same whatever the thread count); a closest hit is an [`AccelHit`] (triangle,
+//!   `t`, barycentrics, unnormalised geometric normal);
 //! * [`Accel::closest_point`] and the batch [`Accel::closest_points`]: the point of the
 //!   triangles nearest to a point within a distance ([`PointHit`]), equal to a brute-force
 //!   scan bit for bit (ties: the lowest triangle index);
@@ -79,6 +80,45 @@ pub use scene::{GeometryId, Intersection, Scene, SceneBuilder, SceneError, Scene
 /// The lower crates, for what the façade does not cover (other builders, other layouts,
 /// work counters, metrics).
 pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_traverse};
+
+/// A closest hit on an [`Accel`] ([`Accel::closest_hit`]): the triangle, where, and its
+/// geometric normal.
+///
+/// `prim`, `t`, `u` and `v` are the kernel's one hit type's ([`Hit`]); `normal` is
+/// derived from the hit triangle:
+///
+/// * `u`, `v`: the barycentric weights of vertices 1 and 2 (the point is
+///   `(1 - u - v) · v0 + u · v1 + v · v2`);
+/// * `normal`: the **unnormalised** geometric normal `(v1 - v0) × (v2 - v0)` of the triangle
+///   hit (its direction follows the winding, whichever side the ray came from; its length is
+///   twice the triangle's area), as [`SceneHit::normal`] and, before the instance's
+///   transform, [`InstanceHit::normal`]. It is computed from the structure's copy of the
+///   triangle ([`Accel::triangles`]): one memory access per hit (`docs/facade.md` measures
+///   what it costs).
+///
+/// ```
+/// use sahara::{Accel, AccelHit, Quality, Ray, Triangle, Vec3A};
+/// // A triangle in the plane z = 1, wound clockwise seen from above.
+/// let tri = Triangle::new(Vec3A::new(0.0, 0.0, 1.0), Vec3A::new(0.0, 2.0, 1.0), Vec3A::new(2.0, 0.0, 1.0));
+/// let accel = Accel::build(&[tri], Quality::Medium)?;
+/// let hit: AccelHit = accel.closest_hit(&Ray::new(Vec3A::new(0.5, 0.5, 3.0), -Vec3A::Z, 0.0, 9.0)).unwrap();
+/// assert_eq!((hit.prim, hit.t), (0, 2.0));
+/// assert_eq!(hit.normal, Vec3A::new(0.0, 0.0, -4.0)); // length 2 × area
+/// # Ok::<(), sahara::Error>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelHit {
+    /// Index of the triangle hit (its position in [`Accel::triangles`]).
+    pub prim: u32,
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Barycentric weight of vertex 1.
+    pub u: f32,
+    /// Barycentric weight of vertex 2.
+    pub v: f32,
+    /// Geometric normal, unnormalised: `(v1 - v0) × (v2 - v0)`.
+    pub normal: Vec3A,
+}
 
 /// A ray-tracing acceleration structure over triangles: the triangles, the binary tree
 /// built over them at a [`Quality`] level, and its 8-wide SIMD layout.
@@ -197,12 +237,52 @@ impl Accel {
         }
     }
 
-    /// The closest hit in `[ray.tmin, ray.tmax]`, or `None`. At equal distance the lowest
-    /// triangle index wins. Invalid rays miss.
+    /// The façade's hit from the kernel's one hit type: adds the geometric normal of the
+    /// triangle hit (`hit` must be a hit, not [`Hit::MISS`]).
     #[inline]
-    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+    fn accel_hit(&self, hit: &Hit) -> AccelHit {
+        AccelHit {
+            prim: hit.prim,
+            t: hit.t,
+            u: hit.u,
+            v: hit.v,
+            normal: self.triangles[hit.prim as usize].cross(),
+        }
+    }
+
+    /// The closest hit in `[ray.tmin, ray.tmax]`, or `None`: the triangle, `t`, the
+    /// barycentrics and the unnormalised geometric normal ([`AccelHit`]). At equal distance
+    /// the lowest triangle index wins. Invalid rays miss. Equals
+    /// [`Accel::brute_closest_hit`] bit for bit.
+    ///
+    /// ```
+    /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
+    /// let accel = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let hit = accel.closest_hit(&Ray::new(Vec3A::new(0.25, 0.5, 2.0), -Vec3A::Z, 0.0, 9.0)).unwrap();
+    /// assert_eq!((hit.prim, hit.t, hit.u, hit.v), (0, 2.0, 0.25, 0.5));
+    /// assert_eq!(hit.normal, Vec3A::Z); // (v1 - v0) × (v2 - v0)
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<AccelHit> {
         let hit = self.wide.closest_hit(ray, &mut sahara_traverse::NoStats);
-        hit.is_hit().then_some(hit)
+        hit.is_hit().then(|| self.accel_hit(&hit))
+    }
+
+    /// The brute-force twin of [`Accel::closest_hit`]: every triangle in index order with the
+    /// exact watertight test (`sahara_traverse::brute::closest_hit`), no tree; the normal
+    /// computed as the query computes it. The query equals it bit for bit.
+    ///
+    /// ```
+    /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
+    /// let accel = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let ray = Ray::new(Vec3A::new(0.25, 0.5, 2.0), -Vec3A::Z, 0.0, 9.0);
+    /// assert_eq!(accel.brute_closest_hit(&ray), accel.closest_hit(&ray));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn brute_closest_hit(&self, ray: &Ray) -> Option<AccelHit> {
+        let hit = sahara_traverse::brute::closest_hit(&self.triangles, ray);
+        hit.is_hit().then(|| self.accel_hit(&hit))
     }
 
     /// True when any triangle is hit in `[ray.tmin, ray.tmax]` (occlusion; stops at the first
@@ -214,7 +294,7 @@ impl Accel {
 
     /// [`Accel::closest_hit`] of every ray, traced in parallel on the current rayon pool
     /// (use `ThreadPool::install` to choose one), in the order of `rays`.
-    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<AccelHit>> {
         rays.par_iter()
             .with_min_len(64)
             .map(|r| self.closest_hit(r))
