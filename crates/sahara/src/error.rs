@@ -52,6 +52,13 @@ pub enum Error {
     /// box: the message names the geometry and primitive) or a geometry id of another scene.
     #[error(transparent)]
     Scene(#[from] crate::SceneError),
+    /// A mesh file given to [`Accel::build_from_file`](crate::Accel::build_from_file) or
+    /// [`SceneBuilder::add_file`](crate::SceneBuilder::add_file) could not be loaded: missing
+    /// or unreadable (`Io`), malformed (`Parse`, naming the line or element), a non-finite
+    /// vertex, a bad index, no triangle, or an unsupported extension; the message names the
+    /// file.
+    #[error(transparent)]
+    File(#[from] sahara_scene::SceneError),
     /// The thread pool for [`BuildOptions::threads`](crate::BuildOptions::threads) could not
     /// be created.
     #[error("cannot create the build's thread pool: {0}")]

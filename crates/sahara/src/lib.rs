@@ -10,6 +10,9 @@
 //! * [`Accel::closest_point`] and the batch [`Accel::closest_points`]: the point of the
 //!   triangles nearest to a point within a distance ([`PointHit`]), equal to a brute-force
 //!   scan bit for bit (ties: the lowest triangle index);
+//! * [`Accel::build_from_file`] and [`SceneBuilder::add_file`]: from a `.obj`, `.obj.gz`,
+//!   `.gltf` or `.glb` file (the loaders of [`sahara_scene`]) to a built structure, a missing
+//!   or broken file an [`Error::File`];
 //! * [`Accel::save`] and [`Accel::load`] store the whole structure in a versioned,
 //!   checksummed file (the layout is rebuilt on load; see [`file`](mod@file)); a broken file is a
 //!   [`LoadError`].
@@ -58,6 +61,7 @@
 mod error;
 pub mod file;
 mod instances;
+mod mesh_file;
 mod point;
 mod quality;
 mod scene;
@@ -78,8 +82,8 @@ pub use sahara_traverse::{Backend, Bvh8, Hit};
 pub use scene::{GeometryId, Intersection, Scene, SceneBuilder, SceneError, SceneHit, ALL_MASK};
 
 /// The lower crates, for what the façade does not cover (other builders, other layouts,
-/// work counters, metrics).
-pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_traverse};
+/// work counters, metrics, scene files and procedural scenes).
+pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_scene, sahara_traverse};
 
 /// A closest hit on an [`Accel`] ([`Accel::closest_hit`]): the triangle, where, and its
 /// geometric normal.
