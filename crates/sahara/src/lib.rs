@@ -45,7 +45,8 @@
 //! * [`Scene`] ([`SceneBuilder`]) holds many geometries under one BVH: triangle meshes and
 //!   user primitives (boxes plus an intersection callback), each with a [`GeometryId`] and a
 //!   32-bit mask; queries take a ray mask and an optional any-hit filter (alpha testing), and
-//!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal).
+//!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal);
+//!   [`Scene::refit`] moves a geometry's triangles and refits the scene's tree.
 //!
 //! **Not here yet.** Saving a [`Scene`] (user callbacks cannot be stored;
 //! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes (instances

@@ -160,6 +160,19 @@ pub enum SceneError {
     /// The id is not a geometry of this scene (out of range, or made by another builder).
     #[error("{0:?} is not a geometry of this scene")]
     UnknownGeometry(GeometryId),
+    /// [`Scene::refit`] was given a geometry of user primitives (it moves triangles only).
+    #[error("{0:?} holds user primitives, not triangles: it cannot be refitted")]
+    NotTriangles(GeometryId),
+    /// [`Scene::refit`] was given another number of triangles than the geometry holds.
+    #[error("geometry {geometry} has {expected} triangles, the refit gave {given}")]
+    RefitCount {
+        /// The geometry's index.
+        geometry: u32,
+        /// Triangles in the geometry.
+        expected: usize,
+        /// Triangles given.
+        given: usize,
+    },
     /// More primitives in all than a 32-bit reference can address.
     #[error("{0} primitives exceed the 2^32 - 1 a scene can hold")]
     TooManyPrimitives(usize),
@@ -1272,6 +1285,137 @@ impl Scene {
             }
         }
         false
+    }
+
+    /// Moves the triangles of geometry `id` to `triangles` (the same number, in the same
+    /// order: triangle `i`'s new position; the same topology) and refits the scene's BVH and
+    /// its 8-wide layout bottom-up instead of rebuilding, as [`Accel::refit`](crate::Accel::refit)
+    /// does: exact (every answer equals [`Scene::brute_closest_hit`] over the moved
+    /// triangles), the tree's quality decaying as the motion grows (`docs/refit.md`). Masks,
+    /// ids and the other geometries are untouched; one call refits the whole tree, so move
+    /// several geometries with [`Scene::refit_many`].
+    ///
+    /// * A scene of triangles only refits as an `Accel`: refitting to unmoved triangles is the
+    ///   identity bit for bit at every level, and spatial-split trees ([`Quality::High`],
+    ///   [`Quality::Best`]) clip the moved triangles again at their recorded cuts.
+    /// * A scene with user primitives refits its tree over all primitives' boxes with the
+    ///   moved triangles' whole boxes (the user primitives' boxes do not move) and collapses
+    ///   the layout again: exact, and the identity for trees without spatial splits; after
+    ///   spatial splits the refitted boxes are whole, not clipped (looser).
+    ///
+    /// Fails, leaving the scene unchanged, with [`SceneError::UnknownGeometry`] (an id of
+    /// another scene or out of range), [`SceneError::NotTriangles`] (a geometry of user
+    /// primitives), [`SceneError::RefitCount`] (another number of triangles) or
+    /// [`SceneError::NonFinite`] (a NaN or infinite coordinate).
+    ///
+    /// ```
+    /// use sahara::{Error, Quality, Ray, SceneBuilder, SceneError, Triangle, Vec3A, ALL_MASK};
+    /// let tri = |z: f32| Triangle::new(Vec3A::new(-1.0, -1.0, z), Vec3A::new(1.0, -1.0, z), Vec3A::new(0.0, 1.0, z));
+    /// let mut b = SceneBuilder::new();
+    /// let door = b.add_triangles(&[tri(2.0)]);
+    /// let wall = b.add_triangles(&[tri(4.0)]);
+    /// let mut scene = b.build(Quality::High)?;
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// assert_eq!(scene.closest_hit(&ray, ALL_MASK).map(|h| h.geometry), Some(door));
+    /// // The door slides away along x.
+    /// let open = Triangle::new(tri(2.0).v[0] + Vec3A::X * 5.0, tri(2.0).v[1] + Vec3A::X * 5.0, tri(2.0).v[2] + Vec3A::X * 5.0);
+    /// scene.refit(door, &[open])?;
+    /// assert_eq!(scene.closest_hit(&ray, ALL_MASK).map(|h| h.geometry), Some(wall));
+    /// assert!(matches!(
+    ///     scene.refit(door, &[]),
+    ///     Err(Error::Scene(SceneError::RefitCount { geometry: 0, expected: 1, given: 0 }))
+    /// ));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn refit(&mut self, id: GeometryId, triangles: &[Triangle]) -> Result<(), Error> {
+        self.refit_many(&[(id, triangles)])
+    }
+
+    /// [`Scene::refit`] of several geometries with one refit of the tree: `(id, triangles)`
+    /// pairs (a later pair for the same geometry wins). All or nothing: on an error (as
+    /// [`Scene::refit`]'s) no geometry moves.
+    ///
+    /// ```
+    /// use sahara::{Quality, SceneBuilder, Triangle, Vec3A};
+    /// let t = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+    /// let up = |t: Triangle| Triangle::new(t.v[0] + Vec3A::Z, t.v[1] + Vec3A::Z, t.v[2] + Vec3A::Z);
+    /// let mut b = SceneBuilder::new();
+    /// let (a, c) = (b.add_triangles(&[t]), b.add_triangles(&[t, t]));
+    /// let mut scene = b.build(Quality::Medium)?;
+    /// scene.refit_many(&[(a, &[up(t)]), (c, &[up(t), t])])?;
+    /// assert_eq!(scene.triangles(c), Some(&[up(t), t][..]));
+    /// // One bad pair: nothing moves.
+    /// assert!(scene.refit_many(&[(a, &[t]), (c, &[t])]).is_err());
+    /// assert_eq!(scene.triangles(a), Some(&[up(t)][..]));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn refit_many(&mut self, moves: &[(GeometryId, &[Triangle])]) -> Result<(), Error> {
+        // Every move is checked before anything changes.
+        let mut ranges = Vec::with_capacity(moves.len());
+        for &(id, triangles) in moves {
+            let g = self.index_of(id)?;
+            let geo = &self.geometries[g];
+            let Kind::Triangles { base } = geo.kind else {
+                return Err(SceneError::NotTriangles(id).into());
+            };
+            if triangles.len() != geo.len as usize {
+                return Err(SceneError::RefitCount {
+                    geometry: id.index,
+                    expected: geo.len as usize,
+                    given: triangles.len(),
+                }
+                .into());
+            }
+            if let Some(p) = triangles.iter().position(|t| !t.is_finite()) {
+                return Err(SceneError::NonFinite {
+                    geometry: id.index,
+                    primitive: p,
+                }
+                .into());
+            }
+            ranges.push((g, base));
+        }
+        let mut old = Vec::with_capacity(moves.len());
+        for (&(_, triangles), &(g, base)) in moves.iter().zip(&ranges) {
+            let range = base..base + triangles.len();
+            old.push((g, base, self.triangles[range.clone()].to_vec()));
+            self.set_triangles(g, base, triangles);
+        }
+        if let Err(e) = self.refit_tree() {
+            // Unreachable after the checks above (finite triangles, a tree checked when it was
+            // built); put the old triangles back all the same, latest move first.
+            for (g, base, triangles) in old.iter().rev() {
+                self.set_triangles(*g, *base, triangles);
+            }
+            let _ = self.refit_tree();
+            return Err(e.into());
+        }
+        Ok(())
+    }
+
+    /// Writes the triangles of geometry `g` (its triangles start at `base`), and with user
+    /// primitives their boxes.
+    fn set_triangles(&mut self, g: usize, base: usize, triangles: &[Triangle]) {
+        self.triangles[base..base + triangles.len()].copy_from_slice(triangles);
+        if self.mixed {
+            let first = self.geometries[g].first as usize;
+            let boxes = &mut self.boxes[first..first + triangles.len()];
+            for (b, t) in boxes.iter_mut().zip(triangles) {
+                *b = t.bounds();
+            }
+        }
+    }
+
+    /// Refits the tree and the layout to the current triangles (and boxes).
+    fn refit_tree(&mut self) -> Result<(), sahara_bvh::RefitError> {
+        if self.mixed {
+            self.bvh.refit(&self.boxes)?;
+            self.wide = Bvh8::from_mixed(&self.bvh, self.mixed_prims());
+            Ok(())
+        } else {
+            self.bvh.refit_triangles(&self.triangles)?;
+            self.wide.refit_triangles(&self.triangles)
+        }
     }
 
     /// Sets a geometry's mask without rebuilding (masks are not part of the tree). Fails with
