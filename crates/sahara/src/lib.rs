@@ -39,7 +39,8 @@
 //!   [`Instances::set_transform`] moves an instance by rebuilding the top level only,
 //!   [`Instances::set_mask`] gives it a 32-bit mask that the queries' ray mask tests, and an
 //!   [`InstanceHit`] gives the instance, mesh, triangle, `t`, `u`, `v` and the world-space
-//!   normal; [`Accel::refit`] moves the vertices and updates the bounds of the tree and of its
+//!   normal; [`Instances::closest_hit_filtered`] and [`Instances::any_hit_filtered`] take
+//!   an any-hit filter as [`Scene`]'s queries do; [`Accel::refit`] moves the vertices and updates the bounds of the tree and of its
 //!   layout without rebuilding.
 //!
 //! * [`Scene`] ([`SceneBuilder`]) holds many geometries under one BVH: triangle meshes and
@@ -50,7 +51,7 @@
 //!
 //! **Not here yet.** Saving a [`Scene`] (user callbacks cannot be stored;
 //! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes (instances
-//! place [`Accel`]s of triangles only), any-hit filters on instances. The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! place [`Accel`]s of triangles only). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example
