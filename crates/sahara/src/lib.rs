@@ -49,9 +49,11 @@
 //!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal);
 //!   [`Scene::refit`] moves a geometry's triangles and refits the scene's tree.
 //!
-//! **Not here yet.** Saving a [`Scene`] (user callbacks cannot be stored;
-//! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes (instances
-//! place [`Accel`]s of triangles only). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! * [`Scene::save`] and [`Scene::load`] store a scene of triangle geometries (masks, tree and
+//!   triangles; the layout rebuilt on load), a broken file a [`LoadError`].
+//!
+//! **Not here yet.** Saving a [`Scene`] with user primitives (their callbacks cannot be
+//! stored), instances of scenes (instances place [`Accel`]s of triangles only). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example

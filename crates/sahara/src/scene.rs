@@ -173,6 +173,10 @@ pub enum SceneError {
         /// Triangles given.
         given: usize,
     },
+    /// [`Scene::save`] was asked to save a geometry of user primitives (their intersection
+    /// callbacks are code, which a file cannot hold).
+    #[error("{0:?} holds user primitives: a scene with user primitives cannot be saved")]
+    UserPrimitives(GeometryId),
     /// More primitives in all than a 32-bit reference can address.
     #[error("{0} primitives exceed the 2^32 - 1 a scene can hold")]
     TooManyPrimitives(usize),
@@ -215,6 +219,16 @@ enum Input {
 }
 
 static NEXT_SCENE: AtomicU64 = AtomicU64::new(1);
+
+/// What a saved scene holds (see [`crate::file`]): per geometry its mask and triangle count,
+/// all triangles in geometry order, the tree and how it was built.
+pub(crate) struct SavedParts<'a> {
+    pub geometries: Vec<(u32, u32)>,
+    pub triangles: &'a [Triangle],
+    pub bvh: &'a Bvh,
+    pub quality: Quality,
+    pub cost: CostModel,
+}
 
 /// Collects the geometries of a [`Scene`]: triangle soups, indexed meshes and user primitives
 /// (boxes plus an intersection callback, optionally a splitter for spatial splits), each with
@@ -1416,6 +1430,142 @@ impl Scene {
             self.bvh.refit_triangles(&self.triangles)?;
             self.wide.refit_triangles(&self.triangles)
         }
+    }
+
+    /// The parts a scene file stores, or [`SceneError::UserPrimitives`] naming the first
+    /// geometry of user primitives (their callbacks cannot be stored).
+    pub(crate) fn saved_parts(&self) -> Result<SavedParts<'_>, SceneError> {
+        if let Some(g) = self
+            .geometries
+            .iter()
+            .position(|g| matches!(g.kind, Kind::User(_)))
+        {
+            return Err(SceneError::UserPrimitives(self.id(g)));
+        }
+        Ok(SavedParts {
+            geometries: self.geometries.iter().map(|g| (g.mask, g.len)).collect(),
+            triangles: &self.triangles,
+            bvh: &self.bvh,
+            quality: self.quality,
+            cost: self.cost,
+        })
+    }
+
+    /// A loaded triangles-only scene: `geometries` are `(mask, triangle count)` in index
+    /// order, their counts summing to `triangles.len()` (below 2^32), and `bvh` a tree checked
+    /// against `triangles`. It gets a tag of its own, like a built scene.
+    pub(crate) fn from_saved(
+        geometries: Vec<(u32, u32)>,
+        triangles: Vec<Triangle>,
+        bvh: Bvh,
+        quality: Quality,
+        cost: CostModel,
+    ) -> Scene {
+        let mut first = 0u32;
+        let geometries = geometries
+            .into_iter()
+            .map(|(mask, len)| {
+                let geo = Geometry {
+                    kind: Kind::Triangles {
+                        base: first as usize,
+                    },
+                    mask,
+                    first,
+                    len,
+                };
+                first += len;
+                geo
+            })
+            .collect();
+        let wide = Bvh8::from_bvh(&bvh, &triangles);
+        let mut scene = Scene {
+            tag: NEXT_SCENE.fetch_add(1, Ordering::Relaxed),
+            geometries,
+            triangles,
+            boxes: Vec::new(),
+            triangle_of: Vec::new(),
+            bvh,
+            wide,
+            quality,
+            cost,
+            mixed: false,
+            masks: Vec::new(),
+        };
+        scene.update_masks();
+        scene
+    }
+
+    /// Writes a scene of triangle geometries: every geometry's mask and triangles, the tree
+    /// and how it was built (format in [`crate::file`]); the 8-wide layout is rebuilt on load.
+    ///
+    /// A scene with user primitives cannot be saved (their callbacks are code): it fails with
+    /// an [`std::io::Error`] of kind [`Unsupported`](std::io::ErrorKind::Unsupported) wrapping
+    /// [`SceneError::UserPrimitives`] (get it with `err.get_ref()` and `downcast_ref`), and
+    /// nothing is written.
+    ///
+    /// ```
+    /// use sahara::{Aabb, Quality, Scene, SceneBuilder, SceneError, Triangle, Vec3A};
+    /// let mut b = SceneBuilder::new();
+    /// b.add_triangles(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)]);
+    /// let scene = b.build(Quality::Fast)?;
+    /// let mut file = Vec::new();
+    /// scene.save(&mut file)?;
+    /// assert_eq!(&file[..8], b"SAHARSCN");
+    ///
+    /// let mut b = SceneBuilder::new();
+    /// let ball = b.add_primitives(&[Aabb::new(Vec3A::ZERO, Vec3A::ONE)], |_: &sahara::Ray, _, _, _| None);
+    /// let err = b.build(Quality::Fast)?.save(&mut Vec::new()).unwrap_err();
+    /// assert_eq!(err.kind(), std::io::ErrorKind::Unsupported);
+    /// let inner = err.get_ref().and_then(|e| e.downcast_ref::<SceneError>());
+    /// assert_eq!(inner, Some(&SceneError::UserPrimitives(ball)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn save<W: std::io::Write>(&self, w: &mut W) -> std::io::Result<()> {
+        crate::file::save_scene(self, w)
+    }
+
+    /// Reads what [`Scene::save`] wrote: checks the magic, version, sizes and checksum, the
+    /// quality code and cost model, that the geometries' counts add up, that every triangle is
+    /// finite and that the tree fits the triangles, then rebuilds the 8-wide layout. The
+    /// loaded scene equals the saved one (tree, layout, triangles, masks, quality, cost) but
+    /// is a scene of its own: its [`GeometryId`]s have the same indices and a new tag (get them
+    /// with [`Scene::geometries`] or [`Scene::geometry`]). Never panics on any bytes: a broken
+    /// file is a [`LoadError`](crate::LoadError).
+    ///
+    /// ```
+    /// use sahara::{LoadError, Quality, Ray, Scene, SceneBuilder, Triangle, Vec3A, ALL_MASK};
+    /// let mut b = SceneBuilder::new();
+    /// let wall = b.add_triangles(&[Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))]);
+    /// b.set_mask(wall, 0b10)?;
+    /// let scene = b.build(Quality::High)?;
+    /// let mut file = Vec::new();
+    /// scene.save(&mut file)?;
+    /// let loaded = Scene::load(&mut file.as_slice())?;
+    /// assert!(loaded.bvh() == scene.bvh() && loaded.wide() == scene.wide());
+    /// let wall = loaded.geometry(0).unwrap();
+    /// assert_eq!(loaded.mask(wall), Some(0b10));
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, 9.0);
+    /// assert_eq!(loaded.closest_hit(&ray, ALL_MASK).map(|h| (h.geometry, h.t)), Some((wall, 2.0)));
+    /// file[60] ^= 1;
+    /// assert!(matches!(Scene::load(&mut file.as_slice()), Err(LoadError::Checksum)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn load<R: std::io::Read>(r: &mut R) -> Result<Scene, crate::LoadError> {
+        crate::file::load_scene(r)
+    }
+
+    /// The id of the geometry at `index` (the position of its `add_*` call), or `None` past
+    /// the last: how a loaded scene's ids are found again.
+    ///
+    /// ```
+    /// let mut b = sahara::SceneBuilder::new();
+    /// let id = b.add_triangles(&[]);
+    /// let scene = b.build(sahara::Quality::Fast)?;
+    /// assert_eq!((scene.geometry(0), scene.geometry(1)), (Some(id), None));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn geometry(&self, index: u32) -> Option<GeometryId> {
+        ((index as usize) < self.geometries.len()).then(|| self.id(index as usize))
     }
 
     /// Sets a geometry's mask without rebuilding (masks are not part of the tree). Fails with
