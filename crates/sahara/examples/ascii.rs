@@ -90,8 +90,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         image.push(match hit {
             None => ' ',
             Some(hit) => {
-                let tri = accel.triangles()[hit.prim as usize];
-                let mut n = (tri.v[1] - tri.v[0]).cross(tri.v[2] - tri.v[0]).normalize();
+                let mut n = hit.normal.normalize();
                 if n.dot(ray.direction()) > 0.0 {
                     n = -n;
                 }

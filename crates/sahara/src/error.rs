@@ -52,13 +52,21 @@ pub enum Error {
     /// box: the message names the geometry and primitive) or a geometry id of another scene.
     #[error(transparent)]
     Scene(#[from] crate::SceneError),
+    /// A mesh file given to [`Accel::build_from_file`](crate::Accel::build_from_file) or
+    /// [`SceneBuilder::add_file`](crate::SceneBuilder::add_file) could not be loaded: missing
+    /// or unreadable (`Io`), malformed (`Parse`, naming the line or element), a non-finite
+    /// vertex, a bad index, no triangle, or an unsupported extension; the message names the
+    /// file.
+    #[error(transparent)]
+    File(#[from] sahara_scene::SceneError),
     /// The thread pool for [`BuildOptions::threads`](crate::BuildOptions::threads) could not
     /// be created.
     #[error("cannot create the build's thread pool: {0}")]
     ThreadPool(String),
 }
 
-/// Why a saved structure could not be loaded ([`Accel::load`](crate::Accel::load)).
+/// Why a saved structure could not be loaded ([`Accel::load`](crate::Accel::load),
+/// [`Instances::load`](crate::Instances::load), [`Scene::load`](crate::Scene::load)).
 ///
 /// Loading never panics and never allocates more than the bytes the reader delivers: a
 /// truncated, padded, corrupted or foreign file is one of these.
@@ -71,7 +79,7 @@ pub enum LoadError {
     #[error("not a sahara acceleration structure (bad magic)")]
     BadMagic,
     /// The file was written by another version of the format.
-    #[error("unsupported acceleration structure version {0} (this build reads version {version}, instance sets 1 to {instances})", version = crate::file::VERSION, instances = crate::file::INSTANCES_VERSION)]
+    #[error("unsupported acceleration structure version {0} (this build reads version {version}, instance sets 1 to {instances}, scenes {scenes})", version = crate::file::VERSION, instances = crate::file::INSTANCES_VERSION, scenes = crate::file::SCENE_VERSION)]
     UnsupportedVersion(u32),
     /// The file ends before the data its header announces.
     #[error("truncated acceleration structure: {expected} bytes announced, {actual} present")]
@@ -103,6 +111,10 @@ pub enum LoadError {
     /// or a non-finite or singular transform (the message says which).
     #[error("the stored instance set is invalid: {0}")]
     InvalidInstances(String),
+    /// A saved scene's geometries are inconsistent (their triangle counts do not add up to
+    /// the file's, or exceed what a scene can hold; the message says which).
+    #[error("the stored scene is invalid: {0}")]
+    InvalidScene(String),
     /// The stored tree does not fit the stored triangles.
     #[error("the stored tree does not fit the stored triangles: {0}")]
     InvalidTree(ValidationError),

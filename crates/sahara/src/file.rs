@@ -46,6 +46,28 @@
 //!
 //! The top level is not stored: loading rebuilds it with the stored quality level's builder
 //! over the placements' world boxes, which gives the same tree (builders are deterministic).
+//!
+//! A [`Scene`] of triangle geometries ([`Scene::save`];
+//! user primitives cannot be saved: their callbacks are code) has a file of its own:
+//!
+//! ```text
+//! offset  size   field
+//! 0       8      magic "SAHARSCN"
+//! 8       4      version (u32; this is version 1)
+//! 12      4      quality code
+//! 16      4      c_t (f32 bits)
+//! 20      4      c_i (f32 bits)
+//! 24      8      geometry count g (u64)
+//! 32      8      triangle count n (u64)
+//! 40      8      tree length t in bytes (u64)
+//! 48      8      FNV-1a 64 checksum of bytes 8..48 and of everything after the header
+//! 56      8·g    per geometry, in index order: its mask (u32) and its triangle count (u32)
+//! ...     36·n   the triangles of all geometries in index order, as in an Accel file
+//! ...     t      the scene's binary tree: a complete `sahara-bvh` file
+//! ```
+//!
+//! As for an `Accel`, the 8-wide layout is rebuilt on load, and the loaded scene's tree and
+//! layout equal the saved one's.
 
 use std::io::{Read, Write};
 
@@ -53,7 +75,7 @@ use sahara_bvh::Bvh;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::CostModel;
 
-use crate::{Accel, Affine3A, BuildOptions, Error, Instances, LoadError, Quality};
+use crate::{Accel, Affine3A, BuildOptions, Error, Instances, LoadError, Quality, Scene};
 
 /// The first eight bytes of every saved acceleration structure.
 pub const MAGIC: [u8; 8] = *b"SAHARACC";
@@ -74,13 +96,7 @@ fn checksum(fields: &[u8], payload: &[u8]) -> u64 {
 
 pub(crate) fn save<W: Write>(accel: &Accel, w: &mut W) -> std::io::Result<()> {
     let mut payload = Vec::with_capacity(accel.triangles.len() * TRIANGLE_BYTES as usize);
-    for t in &accel.triangles {
-        for v in t.v {
-            for x in v.to_array() {
-                payload.extend_from_slice(&x.to_le_bytes());
-            }
-        }
-    }
+    push_triangles(&mut payload, &accel.triangles);
     let mut tree = Vec::new();
     accel.bvh.save(&mut tree)?;
     payload.extend_from_slice(&tree);
@@ -96,6 +112,52 @@ pub(crate) fn save<W: Write>(accel: &Accel, w: &mut W) -> std::io::Result<()> {
     header.extend_from_slice(&sum.to_le_bytes());
     w.write_all(&header)?;
     w.write_all(&payload)
+}
+
+/// Appends the triangles, 36 bytes each (vertex a, b, c; x, y, z; f32 little endian).
+fn push_triangles(payload: &mut Vec<u8>, triangles: &[Triangle]) {
+    for t in triangles {
+        for v in t.v {
+            for x in v.to_array() {
+                payload.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
+}
+
+/// The triangles of [`push_triangles`]' bytes (a multiple of 36), checked finite.
+fn read_triangles(bytes: &[u8]) -> Result<Vec<Triangle>, LoadError> {
+    let f = |c: &[u8], i: usize| {
+        f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])
+    };
+    let triangles: Vec<Triangle> = bytes
+        .chunks_exact(TRIANGLE_BYTES as usize)
+        .map(|c| {
+            let v = |k: usize| Vec3A::new(f(c, 3 * k), f(c, 3 * k + 1), f(c, 3 * k + 2));
+            Triangle::new(v(0), v(1), v(2))
+        })
+        .collect();
+    match triangles.iter().position(|t| !t.is_finite()) {
+        Some(i) => Err(LoadError::NonFinite(i)),
+        None => Ok(triangles),
+    }
+}
+
+/// The stored quality code and cost model (`c_t` and `c_i` as f32 bits), checked.
+fn quality_and_cost(code: u32, c_t: u32, c_i: u32) -> Result<(Quality, CostModel), LoadError> {
+    let quality = Quality::from_code(code).ok_or(LoadError::UnknownQuality(code))?;
+    let cost = CostModel {
+        traversal: f32::from_bits(c_t),
+        intersection: f32::from_bits(c_i),
+    };
+    if !(cost.traversal.is_finite()
+        && cost.intersection.is_finite()
+        && cost.traversal >= 0.0
+        && cost.intersection > 0.0)
+    {
+        return Err(LoadError::InvalidCostModel);
+    }
+    Ok((quality, cost))
 }
 
 /// The little-endian u32 at byte `o` of `h`.
@@ -189,33 +251,10 @@ pub(crate) fn load<R: Read>(r: &mut R) -> Result<Accel, LoadError> {
     if checksum(&header[8..40], &payload) != sum {
         return Err(LoadError::Checksum);
     }
-    let quality = Quality::from_code(u32_at(12)).ok_or(LoadError::UnknownQuality(u32_at(12)))?;
-    let cost = CostModel {
-        traversal: f32::from_bits(u32_at(16)),
-        intersection: f32::from_bits(u32_at(20)),
-    };
-    if !(cost.traversal.is_finite()
-        && cost.intersection.is_finite()
-        && cost.traversal >= 0.0
-        && cost.intersection > 0.0)
-    {
-        return Err(LoadError::InvalidCostModel);
-    }
+    let (quality, cost) = quality_and_cost(u32_at(12), u32_at(16), u32_at(20))?;
     // The sizes were checked against the bytes present, so they fit in memory.
     let (tri_bytes, mut tree_bytes) = payload.split_at((n_tris * TRIANGLE_BYTES) as usize);
-    let f = |c: &[u8], i: usize| {
-        f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])
-    };
-    let triangles: Vec<Triangle> = tri_bytes
-        .chunks_exact(TRIANGLE_BYTES as usize)
-        .map(|c| {
-            let v = |k: usize| Vec3A::new(f(c, 3 * k), f(c, 3 * k + 1), f(c, 3 * k + 2));
-            Triangle::new(v(0), v(1), v(2))
-        })
-        .collect();
-    if let Some(i) = triangles.iter().position(|t| !t.is_finite()) {
-        return Err(LoadError::NonFinite(i));
-    }
+    let triangles = read_triangles(tri_bytes)?;
     let bvh = Bvh::load(&mut tree_bytes)?;
     bvh.validate(&triangles).map_err(LoadError::InvalidTree)?;
     Ok(Accel::assemble(triangles, bvh, quality, cost))
@@ -343,4 +382,88 @@ pub(crate) fn load_instances<R: Read>(r: &mut R) -> Result<Instances, LoadError>
             .map_err(|e| LoadError::InvalidInstances(e.to_string()))?;
     }
     Ok(set)
+}
+
+/// The first eight bytes of a saved [`Scene`].
+///
+/// ```
+/// assert_eq!(&sahara::file::SCENE_MAGIC, b"SAHARSCN");
+/// ```
+pub const SCENE_MAGIC: [u8; 8] = *b"SAHARSCN";
+/// The version of the scene format this build writes and reads.
+///
+/// ```
+/// assert_eq!(sahara::file::SCENE_VERSION, 1);
+/// ```
+pub const SCENE_VERSION: u32 = 1;
+const SCENE_HEADER_LEN: usize = 56;
+const GEOMETRY_BYTES: u64 = 8;
+
+pub(crate) fn save_scene<W: Write>(scene: &Scene, w: &mut W) -> std::io::Result<()> {
+    let parts = scene
+        .saved_parts()
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::Unsupported, e))?;
+    let mut payload = Vec::with_capacity(
+        parts.geometries.len() * GEOMETRY_BYTES as usize
+            + parts.triangles.len() * TRIANGLE_BYTES as usize,
+    );
+    for &(mask, len) in &parts.geometries {
+        payload.extend_from_slice(&mask.to_le_bytes());
+        payload.extend_from_slice(&len.to_le_bytes());
+    }
+    push_triangles(&mut payload, parts.triangles);
+    let mut tree = Vec::new();
+    parts.bvh.save(&mut tree)?;
+    payload.extend_from_slice(&tree);
+    let mut header = Vec::with_capacity(SCENE_HEADER_LEN);
+    header.extend_from_slice(&SCENE_MAGIC);
+    header.extend_from_slice(&SCENE_VERSION.to_le_bytes());
+    header.extend_from_slice(&parts.quality.code().to_le_bytes());
+    header.extend_from_slice(&parts.cost.traversal.to_le_bytes());
+    header.extend_from_slice(&parts.cost.intersection.to_le_bytes());
+    header.extend_from_slice(&(parts.geometries.len() as u64).to_le_bytes());
+    header.extend_from_slice(&(parts.triangles.len() as u64).to_le_bytes());
+    header.extend_from_slice(&(tree.len() as u64).to_le_bytes());
+    let sum = checksum(&header[8..48], &payload);
+    header.extend_from_slice(&sum.to_le_bytes());
+    w.write_all(&header)?;
+    w.write_all(&payload)
+}
+
+pub(crate) fn load_scene<R: Read>(r: &mut R) -> Result<Scene, LoadError> {
+    let header: [u8; SCENE_HEADER_LEN] = read_header(r, &SCENE_MAGIC, &[SCENE_VERSION])?;
+    let field = |o: usize| u32_at(&header, o);
+    let u64_at = |o: usize| u64_at(&header, o);
+    let (n_geometries, n_tris, tree_len, sum) = (u64_at(24), u64_at(32), u64_at(40), u64_at(48));
+    let expected = n_geometries
+        .checked_mul(GEOMETRY_BYTES)
+        .and_then(|g| n_tris.checked_mul(TRIANGLE_BYTES)?.checked_add(g))
+        .and_then(|a| a.checked_add(tree_len));
+    let payload = read_payload(r, expected, SCENE_HEADER_LEN)?;
+    if checksum(&header[8..48], &payload) != sum {
+        return Err(LoadError::Checksum);
+    }
+    let (quality, cost) = quality_and_cost(field(12), field(16), field(20))?;
+    // The sizes were checked against the bytes present, so they fit in memory.
+    let (geo_bytes, rest) = payload.split_at((n_geometries * GEOMETRY_BYTES) as usize);
+    let (tri_bytes, mut tree_bytes) = rest.split_at((n_tris * TRIANGLE_BYTES) as usize);
+    let geometries: Vec<(u32, u32)> = geo_bytes
+        .chunks_exact(GEOMETRY_BYTES as usize)
+        .map(|c| (u32_at(c, 0), u32_at(c, 4)))
+        .collect();
+    let total: u64 = geometries.iter().map(|&(_, len)| u64::from(len)).sum();
+    if total != n_tris {
+        return Err(LoadError::InvalidScene(format!(
+            "the geometries hold {total} triangles, the file {n_tris}"
+        )));
+    }
+    if n_tris >= u64::from(u32::MAX) {
+        return Err(LoadError::InvalidScene(format!(
+            "{n_tris} triangles exceed 2^32 - 1"
+        )));
+    }
+    let triangles = read_triangles(tri_bytes)?;
+    let bvh = Bvh::load(&mut tree_bytes)?;
+    bvh.validate(&triangles).map_err(LoadError::InvalidTree)?;
+    Ok(Scene::from_saved(geometries, triangles, bvh, quality, cost))
 }

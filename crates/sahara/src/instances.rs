@@ -4,10 +4,11 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 use sahara_builders::BuildInput;
+use sahara_geom::intersect::intersect_triangle;
 use sahara_traverse::instance::{BottomLevel, Instance, InstanceSet};
 use sahara_traverse::{brute, NoStats};
 
-use crate::{Aabb, Accel, BuildOptions, Bvh, Error, Hit, Ray, Vec3A};
+use crate::{Aabb, Accel, BuildOptions, Bvh, Error, Hit, Ray, Triangle, Vec3A};
 
 pub use glam::Affine3A;
 
@@ -64,7 +65,8 @@ pub struct InstanceHit {
 /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
 /// let mesh = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
 /// let ray = Ray::new(Vec3A::new(0.25, 0.25, 1.0), -Vec3A::Z, 0.0, 5.0);
-/// assert_eq!(BottomLevel::closest_hit(&mesh, &ray), mesh.closest_hit(&ray).unwrap());
+/// let hit = BottomLevel::closest_hit(&mesh, &ray);
+/// assert_eq!(mesh.closest_hit(&ray).map(|h| (h.prim, h.t)), Some((hit.prim, hit.t)));
 /// # Ok::<(), sahara::Error>(())
 /// ```
 impl BottomLevel for Accel {
@@ -438,6 +440,220 @@ impl Instances {
         })
     }
 
+    /// The façade's hit of a kernel hit `h` on instance `instance`.
+    #[inline]
+    fn hit_on(&self, instance: u32, h: &Hit) -> InstanceHit {
+        self.hit(sahara_traverse::instance::InstanceHit {
+            t: h.t,
+            instance,
+            prim: h.prim,
+            u: h.u,
+            v: h.v,
+        })
+    }
+
+    /// [`Instances::closest_hit`] with an any-hit filter, as [`Scene::closest_hit_filtered`]
+    /// has: `filter(&candidate)` keeps (`true`) or rejects (`false`) a candidate hit (an
+    /// [`InstanceHit`], world-space normal included), and the traversal goes on past rejected
+    /// ones to the nearest kept hit. The filter sees only candidates of instances the mask lets
+    /// through that would change the answer, in an order that depends on the trees, possibly
+    /// more than once for one triangle (spatial splits): it must be a pure function of the
+    /// candidate. Then the answer equals [`Instances::brute_closest_hit_filtered`] bit for bit.
+    ///
+    /// **A panicking filter** aborts the query: the panic propagates to the caller (out of
+    /// rayon in the batch forms). The instance set is only borrowed and has no interior
+    /// mutability, so it stays valid: `catch_unwind(AssertUnwindSafe(|| ...))` and go on
+    /// using it.
+    ///
+    /// [`Scene::closest_hit_filtered`]: crate::Scene::closest_hit_filtered
+    ///
+    /// ```
+    /// use sahara::{Accel, Affine3A, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
+    /// let leaf = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let rows = [(0, Affine3A::from_translation(Vec3::Z)), (0, Affine3A::from_translation(Vec3::Z * 2.0))];
+    /// let scene = Instances::build(vec![leaf], &rows, Quality::Fast)?;
+    /// let ray = Ray::new(Vec3A::new(0.6, 0.1, 0.0), Vec3A::Z, 0.0, 5.0);
+    /// // Alpha test: the leaves are transparent where u > 0.5 on instance 0.
+    /// let opaque = |h: &sahara::InstanceHit| h.instance != 0 || h.u <= 0.5;
+    /// assert_eq!(scene.closest_hit(&ray, ALL_MASK).map(|h| h.instance), Some(0));
+    /// assert_eq!(scene.closest_hit_filtered(&ray, ALL_MASK, opaque).map(|h| h.instance), Some(1));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn closest_hit_filtered<F>(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut filter: F,
+    ) -> Option<InstanceHit>
+    where
+        F: FnMut(&InstanceHit) -> bool,
+    {
+        let meshes = self.set.blases();
+        let instances = self.set.instances();
+        self.set
+            .closest_hit_with(
+                ray,
+                mask,
+                |i, o| {
+                    let mesh = &meshes[instances[i as usize].blas as usize];
+                    mesh.wide().closest_hit_filtered(
+                        o,
+                        |h| filter(&self.hit_on(i, h)),
+                        &mut NoStats,
+                    )
+                },
+                &mut NoStats,
+            )
+            .map(|h| self.hit(h))
+    }
+
+    /// [`Instances::any_hit`] with an any-hit filter: true when some candidate of an instance
+    /// the mask lets through is kept by `filter` (a shadow ray through alpha-tested leaves).
+    /// The filter may be called for any candidate in `[tmin, tmax]`, in any order: it must be
+    /// a pure function of the candidate. A panicking filter aborts the query as in
+    /// [`Instances::closest_hit_filtered`].
+    ///
+    /// ```
+    /// use sahara::{Accel, Affine3A, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
+    /// let leaf = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let scene = Instances::build(vec![leaf], &[(0, Affine3A::from_translation(Vec3::Z))], Quality::Fast)?;
+    /// let ray = Ray::new(Vec3A::new(0.25, 0.25, 0.0), Vec3A::Z, 0.0, 5.0);
+    /// assert!(scene.any_hit_filtered(&ray, ALL_MASK, |_| true));
+    /// assert!(!scene.any_hit_filtered(&ray, ALL_MASK, |h| h.instance != 0));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn any_hit_filtered<F>(&self, ray: &Ray, mask: u32, mut filter: F) -> bool
+    where
+        F: FnMut(&InstanceHit) -> bool,
+    {
+        let meshes = self.set.blases();
+        let instances = self.set.instances();
+        self.set.any_hit_with(
+            ray,
+            mask,
+            |i, o| {
+                let mesh = &meshes[instances[i as usize].blas as usize];
+                mesh.wide()
+                    .any_hit_filtered(o, |h| filter(&self.hit_on(i, h)), &mut NoStats)
+            },
+            &mut NoStats,
+        )
+    }
+
+    /// [`Instances::closest_hit_filtered`] of every ray, in parallel on the current rayon
+    /// pool, in the order of `rays` (the filter is shared by the threads, hence `Fn + Sync`).
+    ///
+    /// ```
+    /// use sahara::{Accel, Affine3A, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
+    /// let leaf = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let scene = Instances::build(vec![leaf], &[(0, Affine3A::from_translation(Vec3::Z))], Quality::Fast)?;
+    /// let rays = vec![Ray::new(Vec3A::new(0.25, 0.25, 0.0), Vec3A::Z, 0.0, 5.0); 3];
+    /// assert_eq!(scene.closest_hits_filtered(&rays, ALL_MASK, |_| false), vec![None; 3]);
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn closest_hits_filtered<F>(
+        &self,
+        rays: &[Ray],
+        mask: u32,
+        filter: F,
+    ) -> Vec<Option<InstanceHit>>
+    where
+        F: Fn(&InstanceHit) -> bool + Sync,
+    {
+        rays.par_iter()
+            .with_min_len(64)
+            .map(|r| self.closest_hit_filtered(r, mask, &filter))
+            .collect()
+    }
+
+    /// [`Instances::any_hit_filtered`] of every ray, in parallel, in the order of `rays`.
+    ///
+    /// ```
+    /// use sahara::{Accel, Affine3A, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
+    /// let leaf = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let scene = Instances::build(vec![leaf], &[(0, Affine3A::from_translation(Vec3::Z))], Quality::Fast)?;
+    /// let rays = vec![Ray::new(Vec3A::new(0.25, 0.25, 0.0), Vec3A::Z, 0.0, 5.0); 3];
+    /// assert_eq!(scene.any_hits_filtered(&rays, ALL_MASK, |_| true), vec![true; 3]);
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn any_hits_filtered<F>(&self, rays: &[Ray], mask: u32, filter: F) -> Vec<bool>
+    where
+        F: Fn(&InstanceHit) -> bool + Sync,
+    {
+        rays.par_iter()
+            .with_min_len(64)
+            .map(|r| self.any_hit_filtered(r, mask, &filter))
+            .collect()
+    }
+
+    /// The brute-force twin of [`Instances::closest_hit_filtered`] (and, with `filter` `None`,
+    /// of [`Instances::closest_hit`]): the loop of [`Instances::brute_closest_hit`], every
+    /// triangle of each instance in order with the watertight test, the filter on each
+    /// candidate nearer than the best kept one. No tree is used.
+    ///
+    /// ```
+    /// use sahara::{Accel, Affine3A, Instances, Quality, Ray, Triangle, Vec3A, ALL_MASK};
+    /// let mesh = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let scene = Instances::build(vec![mesh], &[(0, Affine3A::IDENTITY)], Quality::Fast)?;
+    /// let ray = Ray::new(Vec3A::new(0.2, 0.2, -1.0), Vec3A::Z, 0.0, 5.0);
+    /// let keep = |h: &sahara::InstanceHit| h.u < 0.5;
+    /// assert_eq!(scene.brute_closest_hit_filtered(&ray, ALL_MASK, Some(&mut { keep })), scene.closest_hit_filtered(&ray, ALL_MASK, keep));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn brute_closest_hit_filtered(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut filter: Option<&mut dyn FnMut(&InstanceHit) -> bool>,
+    ) -> Option<InstanceHit> {
+        let meshes = self.set.blases();
+        let instances = self.set.instances();
+        self.set
+            .brute_closest_hit_with(ray, mask, |i, o| {
+                let tris = meshes[instances[i as usize].blas as usize].triangles();
+                brute_filtered(
+                    tris,
+                    o,
+                    &mut |h| filter.as_mut().is_none_or(|f| f(&self.hit_on(i, h))),
+                    false,
+                )
+            })
+            .map(|h| self.hit(h))
+    }
+
+    /// The brute-force twin of [`Instances::any_hit_filtered`] (and, with `filter` `None`, of
+    /// [`Instances::any_hit`]): true when some candidate of
+    /// [`Instances::brute_closest_hit_filtered`]'s loop (the instance's world box culled as the
+    /// query culls it) is kept by the filter.
+    ///
+    /// ```
+    /// use sahara::{Accel, Affine3A, Instances, Quality, Ray, Triangle, Vec3A, ALL_MASK};
+    /// let mesh = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let scene = Instances::build(vec![mesh], &[(0, Affine3A::IDENTITY)], Quality::Fast)?;
+    /// let ray = Ray::new(Vec3A::new(0.2, 0.2, -1.0), Vec3A::Z, 0.0, 5.0);
+    /// assert!(!scene.brute_any_hit_filtered(&ray, ALL_MASK, Some(&mut |_: &sahara::InstanceHit| false)));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn brute_any_hit_filtered(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut filter: Option<&mut dyn FnMut(&InstanceHit) -> bool>,
+    ) -> bool {
+        let meshes = self.set.blases();
+        let instances = self.set.instances();
+        self.set.brute_any_hit_with(ray, mask, |i, o| {
+            let tris = meshes[instances[i as usize].blas as usize].triangles();
+            brute_filtered(
+                tris,
+                o,
+                &mut |h| filter.as_mut().is_none_or(|f| f(&self.hit_on(i, h))),
+                true,
+            )
+            .is_hit()
+        })
+    }
+
     /// The bottom-level meshes, shared (`Arc::ptr_eq` with the `Arc`s given to
     /// [`Instances::build_shared`]).
     pub fn meshes(&self) -> &[Arc<Accel>] {
@@ -449,4 +665,38 @@ impl Instances {
     pub fn set(&self) -> &InstanceSet<Arc<Accel>> {
         &self.set
     }
+}
+
+/// Brute force over `tris` with a filter: every triangle in order with the watertight test,
+/// `keep` asked for each candidate that would change the answer (nearer than the best kept
+/// hit); with `first`, the first kept candidate (an any-hit query).
+fn brute_filtered(
+    tris: &[Triangle],
+    ray: &Ray,
+    keep: &mut dyn FnMut(&Hit) -> bool,
+    first: bool,
+) -> Hit {
+    let mut best = Hit::MISS;
+    if !ray.is_valid() {
+        return best;
+    }
+    let w = ray.watertight();
+    for (p, tri) in tris.iter().enumerate() {
+        let Some(h) = intersect_triangle(&w, tri, ray.tmin, ray.tmax) else {
+            continue;
+        };
+        let h = Hit {
+            t: h.t,
+            prim: p as u32,
+            u: h.u,
+            v: h.v,
+        };
+        if h.t < best.t && keep(&h) {
+            best = h;
+            if first {
+                break;
+            }
+        }
+    }
+    best
 }

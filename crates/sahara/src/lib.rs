@@ -5,10 +5,14 @@
 //!   triples) build with a [`Quality`] level or full [`BuildOptions`] (cost model, threads);
 //! * [`Accel::closest_hit`], [`Accel::any_hit`] (occlusion) and the batch queries
 //!   [`Accel::closest_hits`] and [`Accel::any_hits`] (on rayon, results in the order of the
-//!   rays, the same whatever the thread count);
+//!   rays, the same whatever the thread count); a closest hit is an [`AccelHit`] (triangle,
+//!   `t`, barycentrics, unnormalised geometric normal);
 //! * [`Accel::closest_point`] and the batch [`Accel::closest_points`]: the point of the
 //!   triangles nearest to a point within a distance ([`PointHit`]), equal to a brute-force
 //!   scan bit for bit (ties: the lowest triangle index);
+//! * [`Accel::build_from_file`] and [`SceneBuilder::add_file`]: from a `.obj`, `.obj.gz`,
+//!   `.gltf` or `.glb` file (the loaders of [`sahara_scene`]) to a built structure, a missing
+//!   or broken file an [`Error::File`];
 //! * [`Accel::save`] and [`Accel::load`] store the whole structure in a versioned,
 //!   checksummed file (the layout is rebuilt on load; see [`file`](mod@file)); a broken file is a
 //!   [`LoadError`].
@@ -35,17 +39,21 @@
 //!   [`Instances::set_transform`] moves an instance by rebuilding the top level only,
 //!   [`Instances::set_mask`] gives it a 32-bit mask that the queries' ray mask tests, and an
 //!   [`InstanceHit`] gives the instance, mesh, triangle, `t`, `u`, `v` and the world-space
-//!   normal; [`Accel::refit`] moves the vertices and updates the bounds of the tree and of its
+//!   normal; [`Instances::closest_hit_filtered`] and [`Instances::any_hit_filtered`] take
+//!   an any-hit filter as [`Scene`]'s queries do; [`Accel::refit`] moves the vertices and updates the bounds of the tree and of its
 //!   layout without rebuilding.
 //!
 //! * [`Scene`] ([`SceneBuilder`]) holds many geometries under one BVH: triangle meshes and
 //!   user primitives (boxes plus an intersection callback), each with a [`GeometryId`] and a
 //!   32-bit mask; queries take a ray mask and an optional any-hit filter (alpha testing), and
-//!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal).
+//!   return a [`SceneHit`] (geometry, primitive, `t`, `u`, `v`, geometric normal);
+//!   [`Scene::refit`] moves a geometry's triangles and refits the scene's tree.
 //!
-//! **Not here yet.** Saving a [`Scene`] (user callbacks cannot be stored;
-//! [`Instances::save`] and [`Accel::save`] store the rest), instances of scenes (instances
-//! place [`Accel`]s of triangles only), any-hit filters on instances. The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
+//! * [`Scene::save`] and [`Scene::load`] store a scene of triangle geometries (masks, tree and
+//!   triangles; the layout rebuilt on load), a broken file a [`LoadError`].
+//!
+//! **Not here yet.** Saving a [`Scene`] with user primitives (their callbacks cannot be
+//! stored), instances of scenes (instances place [`Accel`]s of triangles only). The lower crates ([`sahara_builders`], [`sahara_traverse`]) are re-exported for
 //! everything the façade does not cover.
 //!
 //! # Example
@@ -57,6 +65,7 @@
 mod error;
 pub mod file;
 mod instances;
+mod mesh_file;
 mod point;
 mod quality;
 mod scene;
@@ -77,8 +86,47 @@ pub use sahara_traverse::{Backend, Bvh8, Hit};
 pub use scene::{GeometryId, Intersection, Scene, SceneBuilder, SceneError, SceneHit, ALL_MASK};
 
 /// The lower crates, for what the façade does not cover (other builders, other layouts,
-/// work counters, metrics).
-pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_traverse};
+/// work counters, metrics, scene files and procedural scenes).
+pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_scene, sahara_traverse};
+
+/// A closest hit on an [`Accel`] ([`Accel::closest_hit`]): the triangle, where, and its
+/// geometric normal.
+///
+/// `prim`, `t`, `u` and `v` are the kernel's one hit type's ([`Hit`]); `normal` is
+/// derived from the hit triangle:
+///
+/// * `u`, `v`: the barycentric weights of vertices 1 and 2 (the point is
+///   `(1 - u - v) · v0 + u · v1 + v · v2`);
+/// * `normal`: the **unnormalised** geometric normal `(v1 - v0) × (v2 - v0)` of the triangle
+///   hit (its direction follows the winding, whichever side the ray came from; its length is
+///   twice the triangle's area), as [`SceneHit::normal`] and, before the instance's
+///   transform, [`InstanceHit::normal`]. It is computed from the structure's copy of the
+///   triangle ([`Accel::triangles`]): one memory access per hit (`docs/facade.md` measures
+///   what it costs).
+///
+/// ```
+/// use sahara::{Accel, AccelHit, Quality, Ray, Triangle, Vec3A};
+/// // A triangle in the plane z = 1, wound clockwise seen from above.
+/// let tri = Triangle::new(Vec3A::new(0.0, 0.0, 1.0), Vec3A::new(0.0, 2.0, 1.0), Vec3A::new(2.0, 0.0, 1.0));
+/// let accel = Accel::build(&[tri], Quality::Medium)?;
+/// let hit: AccelHit = accel.closest_hit(&Ray::new(Vec3A::new(0.5, 0.5, 3.0), -Vec3A::Z, 0.0, 9.0)).unwrap();
+/// assert_eq!((hit.prim, hit.t), (0, 2.0));
+/// assert_eq!(hit.normal, Vec3A::new(0.0, 0.0, -4.0)); // length 2 × area
+/// # Ok::<(), sahara::Error>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelHit {
+    /// Index of the triangle hit (its position in [`Accel::triangles`]).
+    pub prim: u32,
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Barycentric weight of vertex 1.
+    pub u: f32,
+    /// Barycentric weight of vertex 2.
+    pub v: f32,
+    /// Geometric normal, unnormalised: `(v1 - v0) × (v2 - v0)`.
+    pub normal: Vec3A,
+}
 
 /// A ray-tracing acceleration structure over triangles: the triangles, the binary tree
 /// built over them at a [`Quality`] level, and its 8-wide SIMD layout.
@@ -197,12 +245,52 @@ impl Accel {
         }
     }
 
-    /// The closest hit in `[ray.tmin, ray.tmax]`, or `None`. At equal distance the lowest
-    /// triangle index wins. Invalid rays miss.
+    /// The façade's hit from the kernel's one hit type: adds the geometric normal of the
+    /// triangle hit (`hit` must be a hit, not [`Hit::MISS`]).
     #[inline]
-    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+    fn accel_hit(&self, hit: &Hit) -> AccelHit {
+        AccelHit {
+            prim: hit.prim,
+            t: hit.t,
+            u: hit.u,
+            v: hit.v,
+            normal: self.triangles[hit.prim as usize].cross(),
+        }
+    }
+
+    /// The closest hit in `[ray.tmin, ray.tmax]`, or `None`: the triangle, `t`, the
+    /// barycentrics and the unnormalised geometric normal ([`AccelHit`]). At equal distance
+    /// the lowest triangle index wins. Invalid rays miss. Equals
+    /// [`Accel::brute_closest_hit`] bit for bit.
+    ///
+    /// ```
+    /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
+    /// let accel = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let hit = accel.closest_hit(&Ray::new(Vec3A::new(0.25, 0.5, 2.0), -Vec3A::Z, 0.0, 9.0)).unwrap();
+    /// assert_eq!((hit.prim, hit.t, hit.u, hit.v), (0, 2.0, 0.25, 0.5));
+    /// assert_eq!(hit.normal, Vec3A::Z); // (v1 - v0) × (v2 - v0)
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<AccelHit> {
         let hit = self.wide.closest_hit(ray, &mut sahara_traverse::NoStats);
-        hit.is_hit().then_some(hit)
+        hit.is_hit().then(|| self.accel_hit(&hit))
+    }
+
+    /// The brute-force twin of [`Accel::closest_hit`]: every triangle in index order with the
+    /// exact watertight test (`sahara_traverse::brute::closest_hit`), no tree; the normal
+    /// computed as the query computes it. The query equals it bit for bit.
+    ///
+    /// ```
+    /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
+    /// let accel = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let ray = Ray::new(Vec3A::new(0.25, 0.5, 2.0), -Vec3A::Z, 0.0, 9.0);
+    /// assert_eq!(accel.brute_closest_hit(&ray), accel.closest_hit(&ray));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn brute_closest_hit(&self, ray: &Ray) -> Option<AccelHit> {
+        let hit = sahara_traverse::brute::closest_hit(&self.triangles, ray);
+        hit.is_hit().then(|| self.accel_hit(&hit))
     }
 
     /// True when any triangle is hit in `[ray.tmin, ray.tmax]` (occlusion; stops at the first
@@ -214,11 +302,37 @@ impl Accel {
 
     /// [`Accel::closest_hit`] of every ray, traced in parallel on the current rayon pool
     /// (use `ThreadPool::install` to choose one), in the order of `rays`.
-    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.closest_hit(r))
-            .collect()
+    ///
+    /// Traces the rays in chunks of 256 and reads the hit triangles for their normals in a
+    /// second pass over each chunk, whose loads do not wait on each other (one after each
+    /// traversal cost 15–20% of the batch; `docs/facade.md`).
+    ///
+    /// ```
+    /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
+    /// let accel = Accel::build(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)], Quality::Fast)?;
+    /// let rays: Vec<Ray> = (0..1000)
+    ///     .map(|i| Ray::new(Vec3A::new((i as f32 + 0.5) / 1000.0, 0.25, 1.0), -Vec3A::Z, 0.0, 2.0))
+    ///     .collect();
+    /// let hits = accel.closest_hits(&rays);
+    /// assert!(rays.iter().zip(&hits).all(|(r, h)| *h == accel.closest_hit(r)));
+    /// assert_eq!(hits.iter().flatten().count(), 750);
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<AccelHit>> {
+        const CHUNK: usize = 256;
+        let mut out = vec![None; rays.len()];
+        out.par_chunks_mut(CHUNK)
+            .zip(rays.par_chunks(CHUNK))
+            .for_each(|(out, rays)| {
+                let mut hits = [Hit::MISS; CHUNK];
+                for (h, r) in hits.iter_mut().zip(rays) {
+                    *h = self.wide.closest_hit(r, &mut sahara_traverse::NoStats);
+                }
+                for (o, h) in out.iter_mut().zip(&hits) {
+                    *o = h.is_hit().then(|| self.accel_hit(h));
+                }
+            });
+        out
     }
 
     /// [`Accel::any_hit`] of every ray, in parallel, in the order of `rays`.

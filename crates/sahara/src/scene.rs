@@ -160,6 +160,23 @@ pub enum SceneError {
     /// The id is not a geometry of this scene (out of range, or made by another builder).
     #[error("{0:?} is not a geometry of this scene")]
     UnknownGeometry(GeometryId),
+    /// [`Scene::refit`] was given a geometry of user primitives (it moves triangles only).
+    #[error("{0:?} holds user primitives, not triangles: it cannot be refitted")]
+    NotTriangles(GeometryId),
+    /// [`Scene::refit`] was given another number of triangles than the geometry holds.
+    #[error("geometry {geometry} has {expected} triangles, the refit gave {given}")]
+    RefitCount {
+        /// The geometry's index.
+        geometry: u32,
+        /// Triangles in the geometry.
+        expected: usize,
+        /// Triangles given.
+        given: usize,
+    },
+    /// [`Scene::save`] was asked to save a geometry of user primitives (their intersection
+    /// callbacks are code, which a file cannot hold).
+    #[error("{0:?} holds user primitives: a scene with user primitives cannot be saved")]
+    UserPrimitives(GeometryId),
     /// More primitives in all than a 32-bit reference can address.
     #[error("{0} primitives exceed the 2^32 - 1 a scene can hold")]
     TooManyPrimitives(usize),
@@ -202,6 +219,16 @@ enum Input {
 }
 
 static NEXT_SCENE: AtomicU64 = AtomicU64::new(1);
+
+/// What a saved scene holds (see [`crate::file`]): per geometry its mask and triangle count,
+/// all triangles in geometry order, the tree and how it was built.
+pub(crate) struct SavedParts<'a> {
+    pub geometries: Vec<(u32, u32)>,
+    pub triangles: &'a [Triangle],
+    pub bvh: &'a Bvh,
+    pub quality: Quality,
+    pub cost: CostModel,
+}
 
 /// Collects the geometries of a [`Scene`]: triangle soups, indexed meshes and user primitives
 /// (boxes plus an intersection callback, optionally a splitter for spatial splits), each with
@@ -1272,6 +1299,273 @@ impl Scene {
             }
         }
         false
+    }
+
+    /// Moves the triangles of geometry `id` to `triangles` (the same number, in the same
+    /// order: triangle `i`'s new position; the same topology) and refits the scene's BVH and
+    /// its 8-wide layout bottom-up instead of rebuilding, as [`Accel::refit`](crate::Accel::refit)
+    /// does: exact (every answer equals [`Scene::brute_closest_hit`] over the moved
+    /// triangles), the tree's quality decaying as the motion grows (`docs/refit.md`). Masks,
+    /// ids and the other geometries are untouched; one call refits the whole tree, so move
+    /// several geometries with [`Scene::refit_many`].
+    ///
+    /// * A scene of triangles only refits as an `Accel`: refitting to unmoved triangles is the
+    ///   identity bit for bit at every level, and spatial-split trees ([`Quality::High`],
+    ///   [`Quality::Best`]) clip the moved triangles again at their recorded cuts.
+    /// * A scene with user primitives refits its tree over all primitives' boxes with the
+    ///   moved triangles' whole boxes (the user primitives' boxes do not move) and collapses
+    ///   the layout again: exact, and the identity for trees without spatial splits; after
+    ///   spatial splits the refitted boxes are whole, not clipped (looser).
+    ///
+    /// Fails, leaving the scene unchanged, with [`SceneError::UnknownGeometry`] (an id of
+    /// another scene or out of range), [`SceneError::NotTriangles`] (a geometry of user
+    /// primitives), [`SceneError::RefitCount`] (another number of triangles) or
+    /// [`SceneError::NonFinite`] (a NaN or infinite coordinate).
+    ///
+    /// ```
+    /// use sahara::{Error, Quality, Ray, SceneBuilder, SceneError, Triangle, Vec3A, ALL_MASK};
+    /// let tri = |z: f32| Triangle::new(Vec3A::new(-1.0, -1.0, z), Vec3A::new(1.0, -1.0, z), Vec3A::new(0.0, 1.0, z));
+    /// let mut b = SceneBuilder::new();
+    /// let door = b.add_triangles(&[tri(2.0)]);
+    /// let wall = b.add_triangles(&[tri(4.0)]);
+    /// let mut scene = b.build(Quality::High)?;
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// assert_eq!(scene.closest_hit(&ray, ALL_MASK).map(|h| h.geometry), Some(door));
+    /// // The door slides away along x.
+    /// let open = Triangle::new(tri(2.0).v[0] + Vec3A::X * 5.0, tri(2.0).v[1] + Vec3A::X * 5.0, tri(2.0).v[2] + Vec3A::X * 5.0);
+    /// scene.refit(door, &[open])?;
+    /// assert_eq!(scene.closest_hit(&ray, ALL_MASK).map(|h| h.geometry), Some(wall));
+    /// assert!(matches!(
+    ///     scene.refit(door, &[]),
+    ///     Err(Error::Scene(SceneError::RefitCount { geometry: 0, expected: 1, given: 0 }))
+    /// ));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn refit(&mut self, id: GeometryId, triangles: &[Triangle]) -> Result<(), Error> {
+        self.refit_many(&[(id, triangles)])
+    }
+
+    /// [`Scene::refit`] of several geometries with one refit of the tree: `(id, triangles)`
+    /// pairs (a later pair for the same geometry wins). All or nothing: on an error (as
+    /// [`Scene::refit`]'s) no geometry moves.
+    ///
+    /// ```
+    /// use sahara::{Quality, SceneBuilder, Triangle, Vec3A};
+    /// let t = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+    /// let up = |t: Triangle| Triangle::new(t.v[0] + Vec3A::Z, t.v[1] + Vec3A::Z, t.v[2] + Vec3A::Z);
+    /// let mut b = SceneBuilder::new();
+    /// let (a, c) = (b.add_triangles(&[t]), b.add_triangles(&[t, t]));
+    /// let mut scene = b.build(Quality::Medium)?;
+    /// scene.refit_many(&[(a, &[up(t)]), (c, &[up(t), t])])?;
+    /// assert_eq!(scene.triangles(c), Some(&[up(t), t][..]));
+    /// // One bad pair: nothing moves.
+    /// assert!(scene.refit_many(&[(a, &[t]), (c, &[t])]).is_err());
+    /// assert_eq!(scene.triangles(a), Some(&[up(t)][..]));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn refit_many(&mut self, moves: &[(GeometryId, &[Triangle])]) -> Result<(), Error> {
+        // Every move is checked before anything changes.
+        let mut ranges = Vec::with_capacity(moves.len());
+        for &(id, triangles) in moves {
+            let g = self.index_of(id)?;
+            let geo = &self.geometries[g];
+            let Kind::Triangles { base } = geo.kind else {
+                return Err(SceneError::NotTriangles(id).into());
+            };
+            if triangles.len() != geo.len as usize {
+                return Err(SceneError::RefitCount {
+                    geometry: id.index,
+                    expected: geo.len as usize,
+                    given: triangles.len(),
+                }
+                .into());
+            }
+            if let Some(p) = triangles.iter().position(|t| !t.is_finite()) {
+                return Err(SceneError::NonFinite {
+                    geometry: id.index,
+                    primitive: p,
+                }
+                .into());
+            }
+            ranges.push((g, base));
+        }
+        let mut old = Vec::with_capacity(moves.len());
+        for (&(_, triangles), &(g, base)) in moves.iter().zip(&ranges) {
+            let range = base..base + triangles.len();
+            old.push((g, base, self.triangles[range.clone()].to_vec()));
+            self.set_triangles(g, base, triangles);
+        }
+        if let Err(e) = self.refit_tree() {
+            // Unreachable after the checks above (finite triangles, a tree checked when it was
+            // built); put the old triangles back all the same, latest move first.
+            for (g, base, triangles) in old.iter().rev() {
+                self.set_triangles(*g, *base, triangles);
+            }
+            let _ = self.refit_tree();
+            return Err(e.into());
+        }
+        Ok(())
+    }
+
+    /// Writes the triangles of geometry `g` (its triangles start at `base`), and with user
+    /// primitives their boxes.
+    fn set_triangles(&mut self, g: usize, base: usize, triangles: &[Triangle]) {
+        self.triangles[base..base + triangles.len()].copy_from_slice(triangles);
+        if self.mixed {
+            let first = self.geometries[g].first as usize;
+            let boxes = &mut self.boxes[first..first + triangles.len()];
+            for (b, t) in boxes.iter_mut().zip(triangles) {
+                *b = t.bounds();
+            }
+        }
+    }
+
+    /// Refits the tree and the layout to the current triangles (and boxes).
+    fn refit_tree(&mut self) -> Result<(), sahara_bvh::RefitError> {
+        if self.mixed {
+            self.bvh.refit(&self.boxes)?;
+            self.wide = Bvh8::from_mixed(&self.bvh, self.mixed_prims());
+            Ok(())
+        } else {
+            self.bvh.refit_triangles(&self.triangles)?;
+            self.wide.refit_triangles(&self.triangles)
+        }
+    }
+
+    /// The parts a scene file stores, or [`SceneError::UserPrimitives`] naming the first
+    /// geometry of user primitives (their callbacks cannot be stored).
+    pub(crate) fn saved_parts(&self) -> Result<SavedParts<'_>, SceneError> {
+        if let Some(g) = self
+            .geometries
+            .iter()
+            .position(|g| matches!(g.kind, Kind::User(_)))
+        {
+            return Err(SceneError::UserPrimitives(self.id(g)));
+        }
+        Ok(SavedParts {
+            geometries: self.geometries.iter().map(|g| (g.mask, g.len)).collect(),
+            triangles: &self.triangles,
+            bvh: &self.bvh,
+            quality: self.quality,
+            cost: self.cost,
+        })
+    }
+
+    /// A loaded triangles-only scene: `geometries` are `(mask, triangle count)` in index
+    /// order, their counts summing to `triangles.len()` (below 2^32), and `bvh` a tree checked
+    /// against `triangles`. It gets a tag of its own, like a built scene.
+    pub(crate) fn from_saved(
+        geometries: Vec<(u32, u32)>,
+        triangles: Vec<Triangle>,
+        bvh: Bvh,
+        quality: Quality,
+        cost: CostModel,
+    ) -> Scene {
+        let mut first = 0u32;
+        let geometries = geometries
+            .into_iter()
+            .map(|(mask, len)| {
+                let geo = Geometry {
+                    kind: Kind::Triangles {
+                        base: first as usize,
+                    },
+                    mask,
+                    first,
+                    len,
+                };
+                first += len;
+                geo
+            })
+            .collect();
+        let wide = Bvh8::from_bvh(&bvh, &triangles);
+        let mut scene = Scene {
+            tag: NEXT_SCENE.fetch_add(1, Ordering::Relaxed),
+            geometries,
+            triangles,
+            boxes: Vec::new(),
+            triangle_of: Vec::new(),
+            bvh,
+            wide,
+            quality,
+            cost,
+            mixed: false,
+            masks: Vec::new(),
+        };
+        scene.update_masks();
+        scene
+    }
+
+    /// Writes a scene of triangle geometries: every geometry's mask and triangles, the tree
+    /// and how it was built (format in [`crate::file`]); the 8-wide layout is rebuilt on load.
+    ///
+    /// A scene with user primitives cannot be saved (their callbacks are code): it fails with
+    /// an [`std::io::Error`] of kind [`Unsupported`](std::io::ErrorKind::Unsupported) wrapping
+    /// [`SceneError::UserPrimitives`] (get it with `err.get_ref()` and `downcast_ref`), and
+    /// nothing is written.
+    ///
+    /// ```
+    /// use sahara::{Aabb, Quality, Scene, SceneBuilder, SceneError, Triangle, Vec3A};
+    /// let mut b = SceneBuilder::new();
+    /// b.add_triangles(&[Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y)]);
+    /// let scene = b.build(Quality::Fast)?;
+    /// let mut file = Vec::new();
+    /// scene.save(&mut file)?;
+    /// assert_eq!(&file[..8], b"SAHARSCN");
+    ///
+    /// let mut b = SceneBuilder::new();
+    /// let ball = b.add_primitives(&[Aabb::new(Vec3A::ZERO, Vec3A::ONE)], |_: &sahara::Ray, _, _, _| None);
+    /// let err = b.build(Quality::Fast)?.save(&mut Vec::new()).unwrap_err();
+    /// assert_eq!(err.kind(), std::io::ErrorKind::Unsupported);
+    /// let inner = err.get_ref().and_then(|e| e.downcast_ref::<SceneError>());
+    /// assert_eq!(inner, Some(&SceneError::UserPrimitives(ball)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn save<W: std::io::Write>(&self, w: &mut W) -> std::io::Result<()> {
+        crate::file::save_scene(self, w)
+    }
+
+    /// Reads what [`Scene::save`] wrote: checks the magic, version, sizes and checksum, the
+    /// quality code and cost model, that the geometries' counts add up, that every triangle is
+    /// finite and that the tree fits the triangles, then rebuilds the 8-wide layout. The
+    /// loaded scene equals the saved one (tree, layout, triangles, masks, quality, cost) but
+    /// is a scene of its own: its [`GeometryId`]s have the same indices and a new tag (get them
+    /// with [`Scene::geometries`] or [`Scene::geometry`]). Never panics on any bytes: a broken
+    /// file is a [`LoadError`](crate::LoadError).
+    ///
+    /// ```
+    /// use sahara::{LoadError, Quality, Ray, Scene, SceneBuilder, Triangle, Vec3A, ALL_MASK};
+    /// let mut b = SceneBuilder::new();
+    /// let wall = b.add_triangles(&[Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0))]);
+    /// b.set_mask(wall, 0b10)?;
+    /// let scene = b.build(Quality::High)?;
+    /// let mut file = Vec::new();
+    /// scene.save(&mut file)?;
+    /// let loaded = Scene::load(&mut file.as_slice())?;
+    /// assert!(loaded.bvh() == scene.bvh() && loaded.wide() == scene.wide());
+    /// let wall = loaded.geometry(0).unwrap();
+    /// assert_eq!(loaded.mask(wall), Some(0b10));
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, 9.0);
+    /// assert_eq!(loaded.closest_hit(&ray, ALL_MASK).map(|h| (h.geometry, h.t)), Some((wall, 2.0)));
+    /// file[60] ^= 1;
+    /// assert!(matches!(Scene::load(&mut file.as_slice()), Err(LoadError::Checksum)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn load<R: std::io::Read>(r: &mut R) -> Result<Scene, crate::LoadError> {
+        crate::file::load_scene(r)
+    }
+
+    /// The id of the geometry at `index` (the position of its `add_*` call), or `None` past
+    /// the last: how a loaded scene's ids are found again.
+    ///
+    /// ```
+    /// let mut b = sahara::SceneBuilder::new();
+    /// let id = b.add_triangles(&[]);
+    /// let scene = b.build(sahara::Quality::Fast)?;
+    /// assert_eq!((scene.geometry(0), scene.geometry(1)), (Some(id), None));
+    /// # Ok::<(), sahara::Error>(())
+    /// ```
+    pub fn geometry(&self, index: u32) -> Option<GeometryId> {
+        ((index as usize) < self.geometries.len()).then(|| self.id(index as usize))
     }
 
     /// Sets a geometry's mask without rebuilding (masks are not part of the tree). Fails with

@@ -2,7 +2,9 @@
 //! input is a typed error, and saved structures load back identical or fail with a typed
 //! error, never a panic.
 
-use sahara::{Accel, BuildOptions, CostModel, Error, LoadError, Quality, Ray, Triangle, Vec3A};
+use sahara::{
+    Accel, AccelHit, BuildOptions, CostModel, Error, LoadError, Quality, Ray, Triangle, Vec3A,
+};
 use sahara_fixtures::{rays::segments_in, soups::mixed_soup};
 use sahara_geom::rng::Pcg32;
 use sahara_traverse::brute;
@@ -28,6 +30,65 @@ fn rays(n: usize) -> Vec<Ray> {
     rays
 }
 
+/// The brute-force twin of `Accel::closest_hit`, written out here: the kernel's brute-force
+/// hit (every triangle, the watertight test) and the normal `(v1 - v0) × (v2 - v0)` of the
+/// triangle it names.
+fn brute_twin(tris: &[Triangle], ray: &Ray) -> Option<AccelHit> {
+    let h = brute::closest_hit(tris, ray);
+    h.is_hit().then(|| {
+        let [v0, v1, v2] = tris[h.prim as usize].v;
+        AccelHit {
+            prim: h.prim,
+            t: h.t,
+            u: h.u,
+            v: h.v,
+            normal: (v1 - v0).cross(v2 - v0),
+        }
+    })
+}
+
+/// A hit's bits (NaN-safe equality, signed zeros told apart).
+fn bits(h: Option<AccelHit>) -> Option<(u32, u32, u32, u32, [u32; 3])> {
+    h.map(|h| {
+        let n = h.normal.to_array().map(f32::to_bits);
+        (h.prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits(), n)
+    })
+}
+
+#[test]
+fn the_hit_normal_is_the_unnormalised_cross_product_of_the_hit_triangle() {
+    // Both windings, seen from both sides, at every level: the normal follows the winding,
+    // not the ray, and its length is twice the area.
+    let (a, b, c) = (
+        Vec3A::new(0.0, 0.0, 2.0),
+        Vec3A::new(3.0, 0.0, 2.0),
+        Vec3A::new(0.0, 3.0, 2.0),
+    );
+    let tris = [
+        Triangle::new(a, b, c),
+        Triangle::new(
+            a + Vec3A::X * 10.0,
+            c + Vec3A::X * 10.0,
+            b + Vec3A::X * 10.0,
+        ),
+    ];
+    for q in Quality::ALL {
+        let accel = Accel::build(&tris, q).unwrap();
+        for (x, want) in [
+            (0.5, Vec3A::new(0.0, 0.0, 9.0)),
+            (10.5, Vec3A::new(0.0, 0.0, -9.0)),
+        ] {
+            for dz in [1.0, -1.0] {
+                let o = Vec3A::new(x, 0.5, 2.0 - 3.0 * dz);
+                let hit = accel
+                    .closest_hit(&Ray::new(o, Vec3A::Z * dz, 0.0, 9.0))
+                    .unwrap();
+                assert_eq!((hit.t, hit.normal), (3.0, want), "{q} x {x} dz {dz}");
+            }
+        }
+    }
+}
+
 #[test]
 fn every_quality_level_is_a_registered_builder() {
     let names = sahara_builders::registry::names();
@@ -51,7 +112,8 @@ fn every_quality_answers_like_brute_force() {
         for (i, ray) in rays.iter().enumerate() {
             let want = brute::closest_hit(&tris, ray);
             let got = accel.closest_hit(ray);
-            assert_eq!(got, want.is_hit().then_some(want), "{q} ray {i}");
+            assert_eq!(bits(got), bits(brute_twin(&tris, ray)), "{q} ray {i}");
+            assert_eq!(got, accel.brute_closest_hit(ray), "{q} ray {i}");
             assert_eq!(closest[i], got, "{q} batch ray {i}");
             assert_eq!(accel.any_hit(ray), want.is_hit(), "{q} any ray {i}");
             assert_eq!(any[i], want.is_hit(), "{q} batch any ray {i}");
@@ -279,8 +341,8 @@ fn a_reused_ray_answers_for_its_new_direction() {
             reused.set_direction(d);
             let fresh = Ray::new(reused.origin, d, 0.0, f32::INFINITY);
             assert_eq!(reused, fresh);
-            let want = brute::closest_hit(&tris, &fresh);
-            assert_eq!(accel.closest_hit(&reused), want.is_hit().then_some(want));
+            let want = brute_twin(&tris, &fresh);
+            assert_eq!(bits(accel.closest_hit(&reused)), bits(want));
         }
     }
 }

@@ -150,14 +150,25 @@ fn refit_equals_brute_force_on_the_moved_triangles() {
             for (i, r) in rays.iter().enumerate() {
                 let want = brute::closest_hit(&now, r);
                 // Bit for bit: the hit's distance, triangle and barycentrics.
-                let bits = |h: Option<sahara::Hit>| {
-                    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
-                };
-                assert_eq!(
-                    bits(got[i]),
-                    bits(want.is_hit().then_some(want)),
-                    "{quality:?} frame {frame} ray {i}"
-                );
+                let got_bits =
+                    got[i].map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()));
+                let want_bits = want.is_hit().then(|| {
+                    (
+                        want.t.to_bits(),
+                        want.prim,
+                        want.u.to_bits(),
+                        want.v.to_bits(),
+                    )
+                });
+                assert_eq!(got_bits, want_bits, "{quality:?} frame {frame} ray {i}");
+                // The normal is the moved triangle's.
+                if let Some(h) = got[i] {
+                    assert_eq!(
+                        h.normal,
+                        now[h.prim as usize].cross(),
+                        "{quality:?} normal {i}"
+                    );
+                }
                 assert_eq!(
                     got_any[i],
                     brute::any_hit(&now, r),

@@ -516,12 +516,105 @@ impl<B: BottomLevel> InstanceSet<B> {
     /// The any-hit acceptance of instance `i`.
     #[inline]
     fn instance_any(&self, ray: &Ray, i: u32) -> bool {
-        let b = &self.boxes[i as usize];
-        let (lo, hi) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
-        intersect_aabb(ray.origin, ray.inv_direction(), lo, hi, b).is_some() && {
+        self.passes_box(ray, i) && {
             let blas = &self.blases[self.instances[i as usize].blas as usize];
             blas.any_hit(&self.object_ray(i, ray, ray.tmax))
         }
+    }
+
+    /// The any-hit queries' culling test of instance `i`'s world box.
+    #[inline]
+    fn passes_box(&self, ray: &Ray, i: u32) -> bool {
+        let b = &self.boxes[i as usize];
+        let (lo, hi) = (lower_distance(ray.tmin), cull_distance(ray.tmax));
+        intersect_aabb(ray.origin, ray.inv_direction(), lo, hi, b).is_some()
+    }
+
+    /// [`InstanceSet::closest_hit_masked`] with the bottom-level query given by the caller:
+    /// `closest(instance, object_ray)` answers for instance `instance` (its index, not its
+    /// tree's) and the ray in its object space ([`InstanceSet::object_ray`]), for example a
+    /// filtered query of the instance's tree. With `closest` the tree's own closest hit it is
+    /// [`InstanceSet::closest_hit_masked`]. The same top-level traversal, hit rule and ties.
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+    /// use sahara_traverse::instance::{Instance, InstanceSet};
+    /// use sahara_traverse::{Bvh8, Hit, NoStats};
+    /// use glam::{Affine3A, Vec3};
+    ///
+    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
+    /// let both = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0].union(&b[1]), 0, 2)], prim_indices: vec![0, 1], spatial_splits: false, ref_cuts: None };
+    /// let placed = vec![
+    ///     Instance { blas: 0, transform: Affine3A::IDENTITY },
+    ///     Instance { blas: 0, transform: Affine3A::from_translation(Vec3::Z) },
+    /// ];
+    /// let set = InstanceSet::new(vec![blas], placed, both).unwrap();
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// // Instance 0 is see-through: the hit is instance 1's, one unit further.
+    /// let hit = set.closest_hit_with(&ray, u32::MAX, |i, o| {
+    ///     if i == 0 { Hit::MISS } else { set.blases()[0].closest_hit(o, &mut NoStats) }
+    /// }, &mut NoStats);
+    /// assert_eq!(hit.map(|h| (h.instance, h.t)), Some((1, 3.0)));
+    /// ```
+    pub fn closest_hit_with<S: TraversalStats>(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut closest: impl FnMut(u32, &Ray) -> Hit,
+        stats: &mut S,
+    ) -> Option<InstanceHit> {
+        let h = self.top_wide.closest_hit_custom(
+            &self.boxes,
+            ray,
+            |r: &Ray, i, _tmin, tmax| {
+                if self.masks[i as usize] & mask == 0 {
+                    return None;
+                }
+                let h = closest(i, &self.object_ray(i, r, tmax));
+                h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+            },
+            stats,
+        )?;
+        Some(to_instance_hit(h))
+    }
+
+    /// [`InstanceSet::any_hit_masked`] with the bottom-level query given by the caller:
+    /// `any(instance, object_ray)` (see [`InstanceSet::closest_hit_with`]) is asked for the
+    /// instances whose mask meets `mask` and whose world box the ray passes.
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+    /// use sahara_traverse::instance::{Instance, InstanceSet};
+    /// use sahara_traverse::{Bvh8, NoStats};
+    /// use glam::Affine3A;
+    ///
+    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
+    /// let set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// assert!(set.any_hit_with(&ray, u32::MAX, |_, o| set.blases()[0].any_hit(o, &mut NoStats), &mut NoStats));
+    /// assert!(!set.any_hit_with(&ray, u32::MAX, |_, _| false, &mut NoStats));
+    /// ```
+    pub fn any_hit_with<S: TraversalStats>(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut any: impl FnMut(u32, &Ray) -> bool,
+        stats: &mut S,
+    ) -> bool {
+        self.top_wide.any_hit_occluders(
+            ray,
+            |i| {
+                self.masks[i as usize] & mask != 0
+                    && self.passes_box(ray, i)
+                    && any(i, &self.object_ray(i, ray, ray.tmax))
+            },
+            stats,
+        )
     }
 
     /// The two-level brute-force reference of [`InstanceSet::closest_hit`]: every instance in
@@ -565,8 +658,73 @@ impl<B: BottomLevel> InstanceSet<B> {
         .map(to_instance_hit)
     }
 
+    /// The brute-force reference of [`InstanceSet::closest_hit_with`]: the loop of
+    /// [`InstanceSet::brute_closest_hit_masked`] with `closest(instance, object_ray)` (the
+    /// instance's index, not its tree's).
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+    /// use sahara_traverse::instance::{Instance, InstanceSet};
+    /// use sahara_traverse::{brute, Bvh8, NoStats};
+    /// use glam::Affine3A;
+    ///
+    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
+    /// let set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// let brute = set.brute_closest_hit_with(&ray, u32::MAX, |_, o| brute::closest_hit(&[tri], o));
+    /// assert_eq!(brute, set.closest_hit(&ray, &mut NoStats));
+    /// ```
+    pub fn brute_closest_hit_with(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut closest: impl FnMut(u32, &Ray) -> Hit,
+    ) -> Option<InstanceHit> {
+        crate::custom::brute_closest_hit(&self.boxes, ray, |r: &Ray, i, _tmin, tmax| {
+            if self.masks[i as usize] & mask == 0 {
+                return None;
+            }
+            let h = closest(i, &self.object_ray(i, r, tmax));
+            h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+        })
+        .map(to_instance_hit)
+    }
+
     /// The brute-force reference of [`InstanceSet::any_hit_masked`].
     pub fn brute_any_hit_masked(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        mut any: impl FnMut(u32, &Ray) -> bool,
+    ) -> bool {
+        self.brute_any(ray, Some(mask), |i, o| {
+            any(self.instances[i as usize].blas, o)
+        })
+    }
+
+    /// The brute-force reference of [`InstanceSet::any_hit_with`]: every instance in index
+    /// order whose mask meets `mask` and whose world box the ray passes (the query's culling
+    /// test), `any(instance, object_ray)`.
+    ///
+    /// ```
+    /// use sahara_bvh::{Bvh, Node};
+    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
+    /// use sahara_traverse::instance::{Instance, InstanceSet};
+    /// use sahara_traverse::{brute, Bvh8, NoStats};
+    /// use glam::Affine3A;
+    ///
+    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
+    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
+    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
+    /// let set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
+    /// assert!(set.brute_any_hit_with(&ray, u32::MAX, |_, o| brute::any_hit(&[tri], o)));
+    /// assert!(!set.brute_any_hit_with(&ray, 0, |_, o| brute::any_hit(&[tri], o)));
+    /// ```
+    pub fn brute_any_hit_with(
         &self,
         ray: &Ray,
         mask: u32,
@@ -577,10 +735,12 @@ impl<B: BottomLevel> InstanceSet<B> {
 
     /// The brute-force reference of [`InstanceSet::any_hit`], with `any(blas, object_ray)` the
     /// bottom-level any-hit query.
-    pub fn brute_any_hit(&self, ray: &Ray, any: impl FnMut(u32, &Ray) -> bool) -> bool {
-        self.brute_any(ray, None, any)
+    pub fn brute_any_hit(&self, ray: &Ray, mut any: impl FnMut(u32, &Ray) -> bool) -> bool {
+        self.brute_any(ray, None, |i, o| any(self.instances[i as usize].blas, o))
     }
 
+    /// The any-hit brute force: `any(instance, object_ray)` for every instance in order that
+    /// the mask and the culling box test let through.
     fn brute_any(
         &self,
         ray: &Ray,
@@ -601,10 +761,7 @@ impl<B: BottomLevel> InstanceSet<B> {
                     &self.boxes[i as usize],
                 )
                 .is_some()
-                && any(
-                    self.instances[i as usize].blas,
-                    &self.object_ray(i, ray, ray.tmax),
-                )
+                && any(i, &self.object_ray(i, ray, ray.tmax))
         })
     }
 
