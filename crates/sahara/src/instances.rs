@@ -4,11 +4,10 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 use sahara_builders::BuildInput;
-use sahara_geom::intersect::intersect_triangle;
 use sahara_traverse::instance::{BottomLevel, Instance, InstanceSet};
 use sahara_traverse::{brute, NoStats};
 
-use crate::{Aabb, Accel, BuildOptions, Bvh, Error, Hit, Ray, Triangle, Vec3A};
+use crate::{Aabb, Accel, BuildOptions, Bvh, Error, Hit, Ray, Vec3A};
 
 pub use glam::Affine3A;
 
@@ -611,7 +610,7 @@ impl Instances {
         self.set
             .brute_closest_hit_with(ray, mask, |i, o| {
                 let tris = meshes[instances[i as usize].blas as usize].triangles();
-                brute_filtered(
+                brute::closest_hit_filtered(
                     tris,
                     o,
                     &mut |h| filter.as_mut().is_none_or(|f| f(&self.hit_on(i, h))),
@@ -644,7 +643,7 @@ impl Instances {
         let instances = self.set.instances();
         self.set.brute_any_hit_with(ray, mask, |i, o| {
             let tris = meshes[instances[i as usize].blas as usize].triangles();
-            brute_filtered(
+            brute::closest_hit_filtered(
                 tris,
                 o,
                 &mut |h| filter.as_mut().is_none_or(|f| f(&self.hit_on(i, h))),
@@ -665,38 +664,4 @@ impl Instances {
     pub fn set(&self) -> &InstanceSet<Arc<Accel>> {
         &self.set
     }
-}
-
-/// Brute force over `tris` with a filter: every triangle in order with the watertight test,
-/// `keep` asked for each candidate that would change the answer (nearer than the best kept
-/// hit); with `first`, the first kept candidate (an any-hit query).
-fn brute_filtered(
-    tris: &[Triangle],
-    ray: &Ray,
-    keep: &mut dyn FnMut(&Hit) -> bool,
-    first: bool,
-) -> Hit {
-    let mut best = Hit::MISS;
-    if !ray.is_valid() {
-        return best;
-    }
-    let w = ray.watertight();
-    for (p, tri) in tris.iter().enumerate() {
-        let Some(h) = intersect_triangle(&w, tri, ray.tmin, ray.tmax) else {
-            continue;
-        };
-        let h = Hit {
-            t: h.t,
-            prim: p as u32,
-            u: h.u,
-            v: h.v,
-        };
-        if h.t < best.t && keep(&h) {
-            best = h;
-            if first {
-                break;
-            }
-        }
-    }
-    best
 }

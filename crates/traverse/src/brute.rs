@@ -50,6 +50,41 @@ pub fn any_hit_at(tris: &[Triangle], ray: &Ray, precision: Precision) -> bool {
     tris.iter().any(|t| test(t).is_some())
 }
 
+/// Brute force with an any-hit filter, the twin of the filtered queries: every triangle in
+/// order with the exact test, `keep` asked for each candidate that would change the answer
+/// (nearer than the best kept hit, so lowest index on exact ties); with `first`, the first
+/// kept candidate is returned (an any-hit query).
+pub fn closest_hit_filtered(
+    tris: &[Triangle],
+    ray: &Ray,
+    keep: &mut dyn FnMut(&Hit) -> bool,
+    first: bool,
+) -> Hit {
+    let mut best = Hit::MISS;
+    if !ray.is_valid() {
+        return best;
+    }
+    let test = tester(ray, Precision::Exact);
+    for (p, tri) in tris.iter().enumerate() {
+        let Some(h) = test(tri) else {
+            continue;
+        };
+        let h = Hit {
+            t: h.t,
+            prim: p as u32,
+            u: h.u,
+            v: h.v,
+        };
+        if h.t < best.t && keep(&h) {
+            best = h;
+            if first {
+                break;
+            }
+        }
+    }
+    best
+}
+
 /// The triangle test of `precision` for one ray over its interval.
 fn tester(ray: &Ray, precision: Precision) -> impl Fn(&Triangle) -> Option<TriangleHit> + '_ {
     let w = ray.watertight();
