@@ -34,16 +34,10 @@
 //! bvh.validate(&tris).unwrap();
 //! ```
 
-use rayon::prelude::*;
-use sahara_geom::Aabb;
-use sahara_metrics::CostModel;
-
-use crate::split::binned::partition::split_refs;
-use crate::split::binned::plane::{best_plane, PlaneScratch};
-use crate::split::binned::refs::{ref_bounds, RefBounds};
+use crate::rules::binned::{BinTask, BinnedRule};
+use crate::split::binned::refs::ref_bounds;
 pub use crate::split::binned::{FillBackend, PrimRef};
-use crate::split::{half_area, PAR_NODE_THRESHOLD};
-use crate::topdown::{self, Rule, Step};
+use crate::topdown;
 use crate::{BuildError, BuildInput, Bvh, Configured, Strategy};
 
 /// Configuration of the binned SAH builder.
@@ -147,7 +141,13 @@ pub fn build_with_backend(
 }
 
 fn build_tree(input: &BuildInput, config: &BinnedConfig, backend: FillBackend) -> Bvh {
-    let rule = BinnedRule::new(input, config, backend);
+    let rule = BinnedRule::new(
+        input,
+        config.bins,
+        config.max_leaf_size,
+        config.fallback_depth,
+        backend,
+    );
     let mut refs = rule.refs_of((0..input.len() as u32).collect::<Vec<_>>().as_slice());
     let nb = ref_bounds(&refs);
     let root = BinTask {
@@ -161,122 +161,3 @@ fn build_tree(input: &BuildInput, config: &BinnedConfig, backend: FillBackend) -
 /// The binned SAH builder (Wald 2007). Parallel on rayon; the tree does not depend on the
 /// number of threads.
 pub type BinnedBuilder = Configured<BinnedConfig>;
-
-/// The rule: the cheapest binned plane by Eq. 2, a leaf when small enough and no plane is
-/// cheaper, an object median split where no plane separates anything (or below
-/// [`BinnedConfig::fallback_depth`]).
-struct BinnedRule<'a> {
-    bounds: &'a [Aabb],
-    cost: CostModel,
-    cfg: BinnedConfig,
-    backend: FillBackend,
-}
-
-/// A node still to build: its primitive references (partitioned in place), their bounds, its
-/// depth.
-struct BinTask<'a> {
-    refs: &'a mut [PrimRef],
-    nb: RefBounds,
-    depth: usize,
-}
-
-/// Scratch memory: the plane search's bins, and the misplaced positions of the partition.
-#[derive(Default)]
-struct Scratch {
-    plane: PlaneScratch,
-    wrong: Vec<u32>,
-}
-
-impl<'a> BinnedRule<'a> {
-    fn new(input: &'a BuildInput, cfg: &BinnedConfig, backend: FillBackend) -> Self {
-        Self {
-            bounds: input.bounds(),
-            cost: input.cost,
-            cfg: *cfg,
-            backend,
-        }
-    }
-
-    /// The references of primitives `prims`, in that order.
-    fn refs_of(&self, prims: &[u32]) -> Vec<PrimRef> {
-        let make = |&p: &u32| PrimRef::new(&self.bounds[p as usize], p);
-        if prims.len() >= PAR_NODE_THRESHOLD {
-            prims.par_iter().map(make).collect()
-        } else {
-            prims.iter().map(make).collect()
-        }
-    }
-}
-
-impl<'a> Rule for BinnedRule<'a> {
-    type Task = BinTask<'a>;
-    type Scratch = Scratch;
-
-    fn size(&self, t: &BinTask<'a>) -> usize {
-        t.refs.len()
-    }
-
-    fn split(&self, t: BinTask<'a>, scratch: &mut Scratch) -> Step<BinTask<'a>> {
-        let n = t.refs.len();
-        let nb = t.nb;
-        let can_leaf = n <= self.cfg.max_leaf_size;
-        let plane = if n == 1 || t.depth >= self.cfg.fallback_depth {
-            None
-        } else {
-            best_plane(
-                t.refs,
-                &nb.centroids,
-                self.cfg.bins,
-                self.backend,
-                &mut scratch.plane,
-            )
-        };
-        let make_leaf = match &plane {
-            _ if n == 1 => true,
-            Some(p) => {
-                let (nl, nr) = (p.n_left, n - p.n_left);
-                let cost = self.cost.split_cost(
-                    half_area(&nb.bounds),
-                    half_area(&p.left),
-                    nl,
-                    half_area(&p.right),
-                    nr,
-                );
-                can_leaf && cost >= self.cost.leaf_cost(n)
-            }
-            None => can_leaf,
-        };
-        if make_leaf {
-            return Step::Leaf {
-                bounds: nb.bounds,
-                task: t,
-            };
-        }
-        let refs = t.refs;
-        let (mid, lb, rb) = split_refs(refs, plane.as_ref(), &nb, &mut scratch.wrong);
-        debug_assert!(mid > 0 && mid < n);
-        let (left, right) = refs.split_at_mut(mid);
-        let depth = t.depth + 1;
-        Step::Split {
-            bounds: nb.bounds,
-            left: BinTask {
-                refs: left,
-                nb: lb,
-                depth,
-            },
-            right: BinTask {
-                refs: right,
-                nb: rb,
-                depth,
-            },
-        }
-    }
-
-    fn leaf_refs(&self, t: &BinTask<'a>, out: &mut Vec<u32>) {
-        out.extend(t.refs.iter().map(PrimRef::id));
-    }
-
-    fn parallel_threshold(&self) -> usize {
-        2048
-    }
-}

@@ -18,7 +18,7 @@
 //! decides leaf or split for one node, the driver builds the tree), [`cost_only`] (the same
 //! rules costed without storing a node: temporary subtrees), [`rules`] (the rules several
 //! builders share), the builders, one module each, which never import one another
-//! ([`binned`], [`sweep`], [`sbvh`], [`spatial_binned`], [`tsah`], [`tsah_spatial`], [`popov`], [`ploc`],
+//! ([`binned`], [`cluster_binned`], [`sweep`], [`sbvh`], [`spatial_binned`], [`tsah`], [`tsah_spatial`], [`popov`], [`ploc`],
 //! [`reinsert`]), and the [`registry`], the table of presets that the xtask, the benches and
 //! the tests enumerate. `docs/ARCHITECTURE.md` says what adding a builder takes.
 //!
@@ -45,6 +45,7 @@
 #![warn(missing_docs)]
 
 pub mod binned;
+pub mod cluster_binned;
 pub mod cost_only;
 mod input;
 pub mod ploc;

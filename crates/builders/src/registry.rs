@@ -9,6 +9,7 @@
 use std::sync::RwLock;
 
 use crate::binned::{BinnedBuilder, BinnedConfig};
+use crate::cluster_binned::{ClusterBinnedBuilder, ClusterBinnedConfig};
 use crate::ploc::{PlocBuilder, PlocConfig};
 use crate::popov::{PopovBuilder, PopovConfig};
 use crate::reinsert::{Reinsert, ReinsertConfig};
@@ -122,6 +123,12 @@ fn built_in() -> Vec<Entry> {
             || Box::new(BinnedBuilder::named("binned-128", BinnedConfig::FINE)),
         ),
         // Full-sweep SAH (`sweep`).
+        preset(
+            "cluster-binned",
+            "binned SAH (8 bins) over Morton clusters of <= 32 triangles, then inside them \
+             (nodes of <= 4 triangles are leaves): the quick build for per-frame rebuilds",
+            || Box::new(ClusterBinnedBuilder::new(ClusterBinnedConfig::DEFAULT)),
+        ),
         preset(
             "sweep",
             "full-sweep SAH (MacDonald & Booth 1990), the reference greedy builder",
