@@ -16,10 +16,16 @@ use sahara_metrics::CostModel;
 ///
 /// | level | builder | build time | work per ray, primary / diffuse / AO rays |
 /// |---|---|---:|---|
-/// | [`Fast`](Quality::Fast) | `binned` (binned SAH, Wald 2007) | 0.88× | 0.985 / 0.988 / 0.987 |
+/// | [`Fast`](Quality::Fast) | `cluster-binned` (binned SAH over Morton clusters) | ≈0.5× | 0.924 / 0.917 / 0.919 (bvh8) |
 /// | [`Medium`](Quality::Medium) | `sweep` (full-sweep SAH) | 1× | 1 / 1 / 1 |
 /// | [`High`](Quality::High) | `spatial-binned` (binned SAH with spatial splits, in place) | 1.9× | 1.083 / 1.083 / 1.074 (bvh8) |
 /// | [`Best`](Quality::Best) | `tsah-sbvh` (temporary-subtree SAH with spatial splits) | 142× | 1.230 / 1.209 / – |
+///
+/// `Fast` was `binned` (0.88× the build time, 0.985 / 0.988 / 0.987) until 2026-12-07, when
+/// `cluster-binned` replaced it (issue 44, item 3): 0.37× `Medium`'s build instructions on
+/// Sponza and Sibenik (callgrind, one thread), its build alone 1.8–2.3× faster and with the
+/// collapse to bvh8 1.65–1.74× (two loaded Xeon cores, interleaved), for 8–9% more work per
+/// ray (geomean of nine scenes, at most 20% on any); `docs/builders-frontier.md`.
 ///
 /// `High` was `sbvh` (14.8× the build time, 1.166 / 1.160 / 1.134) until 2026-12-07, when the
 /// in-place spatial-split builder replaced it: on the ten scenes in one run over the 8-wide
@@ -37,7 +43,8 @@ use sahara_metrics::CostModel;
 /// whatever the number of threads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Quality {
-    /// Binned SAH: the quickest build, about 1.5% more work per ray than [`Quality::Medium`].
+    /// Binned SAH over Morton clusters: the quickest build (about half [`Quality::Medium`]'s
+    /// time, 1.7× faster with the collapse to the 8-wide layout), about 8–9% more work per ray.
     Fast,
     /// Full-sweep SAH: the classic object-split tree. The default.
     #[default]
@@ -61,7 +68,7 @@ impl Quality {
     /// The registry name of the builder this level runs (`sahara_builders::registry`).
     pub const fn builder_name(self) -> &'static str {
         match self {
-            Quality::Fast => "binned",
+            Quality::Fast => "cluster-binned",
             Quality::Medium => "sweep",
             Quality::High => "spatial-binned",
             Quality::Best => "tsah-sbvh",

@@ -7,8 +7,8 @@
 //! (defaults: `binned`, 100000).
 //!
 //! `cargo run --release -p sahara-traverse --example refit_decay levels [size]`: the compact
-//! tables of `docs/refit.md` for the builders of the four façade levels (`binned`, `sweep`,
-//! `spatial-binned`, `tsah-sbvh`: `Quality::Fast` to `Quality::Best`) and `sbvh`, frames 0,
+//! tables of `docs/refit.md` for the builders of the four façade levels (`cluster-binned`, `sweep`,
+//! `spatial-binned`, `tsah-sbvh`: `Quality::Fast` to `Quality::Best`), `binned` and `sbvh`, frames 0,
 //! 1, 2, 5 and 10, and the refit of the spatial-split trees to unmoved triangles without their
 //! cut records (how refit worked before the records: whole triangle boxes).
 
@@ -154,13 +154,14 @@ fn work(w: &Bvh8, rays: &[Ray]) -> f64 {
     (c.inner + c.triangles) as f64 / rays.len() as f64
 }
 
-/// The builders of `Quality::Fast`, `Medium`, `High` and `Best`, and `sbvh` (`High` until
-/// 2026-12-07).
-const LEVELS: [(&str, &str); 5] = [
-    ("Fast", "binned"),
+/// The builders of `Quality::Fast`, `Medium`, `High` and `Best`, and `binned` and `sbvh`
+/// (`Fast` and `High` until 2026-12-07).
+const LEVELS: [(&str, &str); 6] = [
+    ("Fast", "cluster-binned"),
     ("Medium", "sweep"),
     ("High", "spatial-binned"),
     ("Best", "tsah-sbvh"),
+    ("former Fast", "binned"),
     ("former High", "sbvh"),
 ];
 
