@@ -1,8 +1,6 @@
 //! The AVX2 backend: 8-wide box tests and descent in 256-bit registers.
 
-use super::kernel::{descend_ordered, descend_sorted, Kernel, RayData, Stack};
-#[cfg(doc)]
-use super::kernel::{rank_key, NETWORK8};
+use super::kernel::{descend_ordered, Kernel, RayData, Stack};
 use super::Sse;
 use super::{PacketHits, SseRay, TriPacket, WideNode};
 use std::arch::x86_64::*;
@@ -50,7 +48,7 @@ pub(super) unsafe fn slabs8<const W: usize, const NEG: bool>(
 /// For every 8-bit mask, the positions of its set bits in increasing order, 3 bits each
 /// (lowest first): the lane permutation that packs the set lanes at the bottom; the number of
 /// set bits in bits 24..28 (AVX2 does not imply `popcnt`).
-pub(super) static COMPACT8: [u32; 256] = {
+static COMPACT8: [u32; 256] = {
     let mut t = [0u32; 256];
     let mut m = 0;
     while m < 256 {
@@ -75,7 +73,8 @@ pub(super) static COMPACT8: [u32; 256] = {
 ///
 /// # Safety
 /// AVX2 must be present; `W == 8`.
-#[inline(always)]
+#[inline]
+#[target_feature(enable = "avx2,fma")]
 pub(super) unsafe fn descend8<const W: usize, St: Stack>(
     node: &WideNode<W>,
     mask: u32,
@@ -133,170 +132,6 @@ pub(super) unsafe fn descend8<const W: usize, St: Stack>(
     }
 }
 
-/// One layer of the sorting network of [`descend8_sorted`]: each lane is compared with the
-/// lane `p` brings to it; the lanes in `MIN_LANES` (the second of each pair) keep the
-/// smaller key, the others the larger (a lane paired with itself keeps its key).
-#[inline(always)]
-unsafe fn layer<const MIN_LANES: i32>(k: __m256i, p: __m256i) -> __m256i {
-    // SAFETY: the caller's target features include AVX2.
-    unsafe { _mm256_blend_epi32::<MIN_LANES>(_mm256_max_epi32(k, p), _mm256_min_epi32(k, p)) }
-}
-
-/// [`descend_sorted`] of an 8-wide node in AVX2 registers: one hit child is returned and two
-/// are ordered by one comparison, as in [`descend_sorted`]; for three or more, the lanes are
-/// put in the node's octant order for the ray (a lane permutation, as the octant-order
-/// descent did), the [`rank_key`]s of the 8 lanes (`i32::MIN` in lanes not hit) are sorted
-/// decreasingly by [`NETWORK8`] (6 layers of `max`/`min`/blend; 3 of the permutations stay
-/// within 128-bit lanes), and the children with their own entry distances are written to the
-/// stack far to near as two 256-bit stores. The nearest, which is returned instead of pushed,
-/// comes from a `min` reduction of the keys ([`nearest8`]), off the network's latency.
-///
-/// # Safety
-/// AVX2 must be present; `W == 8`.
-#[inline(always)]
-pub(super) unsafe fn descend8_sorted<const W: usize, St: Stack>(
-    node: &WideNode<W>,
-    mask: u32,
-    dist: &[f32; W],
-    rd: &RayData,
-    stack: &mut St,
-) -> Option<u32> {
-    debug_assert_eq!(W, 8);
-    debug_assert_eq!(mask & !node.valid, 0, "an unused slot's empty box was hit");
-    if mask == 0 {
-        return None;
-    }
-    let rest = mask & (mask - 1);
-    if rest & (rest.wrapping_sub(1)) == 0 {
-        // One or two children.
-        return descend_sorted(node, mask, dist, rd, stack);
-    }
-    // SAFETY: `W == 8`: `children` and `dist` hold 8 lanes; `spare(8)` makes room for the two
-    // stores; `Entry` is `repr(C)` (`child`, `dist`).
-    unsafe {
-        let (idx, k, hit) = octant_keys(node, mask, dist, rd);
-        let near = nearest8(_mm256_castps_si256(_mm256_blendv_ps(
-            _mm256_castsi256_ps(_mm256_set1_epi32(i32::MAX)),
-            _mm256_castsi256_ps(k),
-            _mm256_castsi256_ps(hit),
-        )));
-        let k = _mm256_castps_si256(_mm256_blendv_ps(
-            _mm256_castsi256_ps(_mm256_set1_epi32(i32::MIN)),
-            _mm256_castsi256_ps(k),
-            _mm256_castsi256_ps(hit),
-        ));
-        // The layers of `NETWORK8`.
-        let k = layer::<0b1010_1010>(k, _mm256_shuffle_epi32::<0b10_11_00_01>(k));
-        let k = layer::<0b1100_1100>(k, _mm256_shuffle_epi32::<0b01_00_11_10>(k));
-        let k = layer::<0b0100_0100>(k, _mm256_shuffle_epi32::<0b11_01_10_00>(k));
-        let k = layer::<0b1111_0000>(k, _mm256_permute4x64_epi64::<0b01_00_11_10>(k));
-        let k = layer::<0b0011_0000>(k, _mm256_permute4x64_epi64::<0b11_01_10_00>(k));
-        let k = layer::<0b0101_0100>(
-            k,
-            _mm256_permutevar8x32_epi32(k, _mm256_setr_epi32(0, 2, 1, 4, 3, 6, 5, 7)),
-        );
-        push_sorted(node, mask, dist, idx, k, stack);
-        Some(node.children[octant_slot(node, rd, near)])
-    }
-}
-
-/// The lanes of [`descend8_sorted`]: `(idx, keys, hit)`, lane `i` for position `i` of the
-/// node's octant order for the ray (`7` the nearest): the slot there, its [`rank_key`], and
-/// whether it was hit (the sign bit).
-///
-/// # Safety
-/// AVX2 must be present; `W == 8`.
-#[inline(always)]
-pub(super) unsafe fn octant_keys<const W: usize>(
-    node: &WideNode<W>,
-    mask: u32,
-    dist: &[f32; W],
-    rd: &RayData,
-) -> (__m256i, __m256i, __m256i) {
-    // SAFETY: `W == 8`: `dist` holds 8 lanes; the caller's features include AVX2.
-    unsafe {
-        let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        let three = _mm256_set1_epi32(3);
-        let seven = _mm256_set1_epi32(7);
-        // `order_xor` is 0 or 7; masked so that the compiler knows every shift is below 32.
-        let shift = _mm256_mullo_epi32(
-            _mm256_xor_si256(lanes, _mm256_set1_epi32((rd.order_xor & 7) as i32)),
-            three,
-        );
-        let p = node.order_bits(rd.order_q) as i32;
-        let idx = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(p), shift), seven);
-        let hit = _mm256_slli_epi32::<31>(_mm256_srlv_epi32(_mm256_set1_epi32(mask as i32), idx));
-        let b = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(dist.as_ptr().cast()), idx);
-        // `order_key`: flip the magnitude bits of negative distances; then `rank_key`.
-        let k = _mm256_xor_si256(
-            b,
-            _mm256_and_si256(_mm256_srai_epi32::<31>(b), _mm256_set1_epi32(0x7fff_ffff)),
-        );
-        let k = _mm256_or_si256(
-            _mm256_andnot_si256(seven, k),
-            _mm256_xor_si256(lanes, seven),
-        );
-        (idx, k, hit)
-    }
-}
-
-/// The slot of the child whose [`rank_key`] has the low bits `r`.
-#[inline(always)]
-pub(super) fn octant_slot<const W: usize>(node: &WideNode<W>, rd: &RayData, r: usize) -> usize {
-    let i = (7 - (r & 7)) ^ (rd.order_xor & 7);
-    (node.order_bits(rd.order_q) >> (3 * i)) as usize & (W - 1)
-}
-
-/// Writes the children of the keys `k` sorted decreasingly (lanes of [`octant_keys`]' `idx`)
-/// with their own entry distances to the stack as two 256-bit stores and keeps all but the
-/// last hit one.
-///
-/// # Safety
-/// AVX2 must be present; `W == 8`; `mask` has at least one bit set.
-#[inline(always)]
-pub(super) unsafe fn push_sorted<const W: usize, St: Stack>(
-    node: &WideNode<W>,
-    mask: u32,
-    dist: &[f32; W],
-    idx: __m256i,
-    k: __m256i,
-    stack: &mut St,
-) {
-    // SAFETY: `W == 8`: `children` and `dist` hold 8 lanes; `spare(8)` makes room for the two
-    // stores; `Entry` is `repr(C)` (`child`, `dist`).
-    unsafe {
-        let seven = _mm256_set1_epi32(7);
-        let fin =
-            _mm256_permutevar8x32_epi32(idx, _mm256_xor_si256(_mm256_and_si256(k, seven), seven));
-        let n = (COMPACT8[mask as usize & 255] >> 24) as usize;
-        let c = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(node.children.as_ptr().cast()), fin);
-        let d = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(dist.as_ptr().cast()), fin);
-        let lo = _mm256_unpacklo_epi32(c, d);
-        let hi = _mm256_unpackhi_epi32(c, d);
-        let out = stack.spare(8).cast::<__m256i>();
-        _mm256_storeu_si256(out, _mm256_permute2x128_si256::<0x20>(lo, hi));
-        _mm256_storeu_si256(out.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
-        stack.grow(n - 1);
-    }
-}
-
-/// The slot of the least of 8 [`slot_key`]s (`i32::MAX` in the slots not hit): a `min`
-/// reduction, which gives the child to visit next in fewer cycles than the full sorting
-/// network (the network's result is needed only for the stack).
-///
-/// # Safety
-/// AVX2 must be present.
-#[inline(always)]
-pub(super) unsafe fn nearest8(k: __m256i) -> usize {
-    // SAFETY: the caller's target features include AVX2.
-    unsafe {
-        let m = _mm256_min_epi32(k, _mm256_shuffle_epi32::<0b10_11_00_01>(k));
-        let m = _mm256_min_epi32(m, _mm256_shuffle_epi32::<0b01_00_11_10>(m));
-        let m = _mm_min_epi32(_mm256_castsi256_si128(m), _mm256_extracti128_si256::<1>(m));
-        _mm_cvtsi128_si32(m) as usize & 7
-    }
-}
-
 /// The AVX2 backend: 8-wide box tests in 256-bit registers (4-wide nodes and triangle
 /// packets use the SSE code, compiled with VEX encoding).
 pub(crate) struct Avx2;
@@ -325,7 +160,8 @@ impl<const W: usize> Kernel<W> for Avx2 {
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
         }
     }
-    #[inline(always)]
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn descend<St: Stack>(
         node: &WideNode<W>,
         mask: u32,
@@ -334,19 +170,9 @@ impl<const W: usize> Kernel<W> for Avx2 {
         stack: &mut St,
     ) -> Option<u32> {
         if W != 8 {
-            return if <Self as Kernel<W>>::DISTANCE_ORDER {
-                descend_sorted(node, mask, dist, rd, stack)
-            } else {
-                descend_ordered(node, mask, dist, rd, stack)
-            };
+            return descend_ordered(node, mask, dist, rd, stack);
         }
         // SAFETY: `W == 8`; the caller guarantees the features.
-        unsafe {
-            if <Self as Kernel<W>>::DISTANCE_ORDER {
-                descend8_sorted(node, mask, dist, rd, stack)
-            } else {
-                descend8(node, mask, dist, rd, stack)
-            }
-        }
+        unsafe { descend8(node, mask, dist, rd, stack) }
     }
 }

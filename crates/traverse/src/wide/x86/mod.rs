@@ -249,42 +249,6 @@ impl<const W: usize, K: kernel::Kernel<W, Ray = SseRay>> kernel::Kernel<W> for F
     }
 }
 
-/// The distance-sorted 8-wide descents of the AVX2 and AVX-512 backends that this CPU runs,
-/// for the tests of `kernel.rs`.
-#[cfg(test)]
-pub(crate) fn sorted_descents8() -> Vec<(&'static str, kernel::tests::Descent<8>)> {
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn avx2(
-        node: &WideNode<8>,
-        mask: u32,
-        dist: &[f32; 8],
-        rd: &RayData,
-        st: &mut VecStack,
-    ) -> Option<u32> {
-        // SAFETY: the caller checked the features; `W == 8`.
-        unsafe { avx2::descend8_sorted(node, mask, dist, rd, st) }
-    }
-    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
-    unsafe fn avx512(
-        node: &WideNode<8>,
-        mask: u32,
-        dist: &[f32; 8],
-        rd: &RayData,
-        st: &mut VecStack,
-    ) -> Option<u32> {
-        // SAFETY: as above.
-        unsafe { avx512::descend8_sorted512(node, mask, dist, rd, st) }
-    }
-    let mut v: Vec<(&'static str, kernel::tests::Descent<8>)> = Vec::new();
-    if crate::Backend::Avx2.is_available() {
-        v.push(("avx2 bvh8", avx2));
-    }
-    if crate::Backend::Avx512.is_available() {
-        v.push(("avx512 bvh8", avx512));
-    }
-    v
-}
-
 /// Generates the entry points of a backend: a fast path (inline stack, `tmin >= 0`) and an
 /// out-of-line path for deep trees and rays with `tmin < 0`. The entry points are `unsafe`:
 /// the caller guarantees the backend's CPU features.
