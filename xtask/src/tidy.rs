@@ -409,6 +409,66 @@ fn builders_never_see_rays() {
     }
 }
 
+/// The modules of `crates/builders/src` that are not builders: what builders may use. The
+/// invariant's paragraph in docs/ARCHITECTURE.md names each in backticks.
+const BUILDER_SHARED_MODULES: &[&str] = &[
+    "topdown",
+    "split",
+    "rules",
+    "cost_only",
+    "input",
+    "simd",
+    "registry",
+];
+
+#[test]
+fn no_builder_imports_another() {
+    let src = root().join("crates/builders/src");
+    let doc = architecture();
+    let invariant = doc
+        .split("**Architecture invariant:** no builder module uses another")
+        .nth(1)
+        .and_then(|rest| rest.split("\n\n").next())
+        .expect("docs/ARCHITECTURE.md: the invariant 'no builder module uses another' is missing");
+    let named = backticked(invariant);
+    for m in BUILDER_SHARED_MODULES {
+        assert!(
+            names_module(&named, m),
+            "docs/ARCHITECTURE.md: the invariant 'no builder module uses another' does not name \
+             the shared module `{m}` that the tidy test allows"
+        );
+    }
+    let modules = top_level_modules(&src);
+    let builders: Vec<&String> = modules
+        .iter()
+        .filter(|m| !BUILDER_SHARED_MODULES.contains(&m.as_str()))
+        .collect();
+    assert!(
+        builders.len() >= 8,
+        "too few builder modules found: {builders:?}"
+    );
+    let mut errors = Vec::new();
+    for m in modules.iter().filter(|m| m.as_str() != "registry") {
+        let files = if src.join(m).is_dir() {
+            rust_files(&src.join(m))
+        } else {
+            vec![src.join(format!("{m}.rs"))]
+        };
+        for f in files {
+            for used in crate_paths(&read(&f)) {
+                if used != *m && builders.contains(&&used) {
+                    errors.push(format!(
+                        "{}: `{m}` uses the builder module `{used}`; move what both need into \
+                         `split/`, `rules/` or the driver (docs/ARCHITECTURE.md)",
+                        rel(&f)
+                    ));
+                }
+            }
+        }
+    }
+    assert!(errors.is_empty(), "\n{}\n", errors.join("\n"));
+}
+
 #[test]
 fn metrics_never_mutate_trees() {
     let mut hits = Vec::new();
