@@ -74,6 +74,7 @@ use std::io::{Read, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
+use sahara_traverse::HitLocation;
 
 pub use error::{BuildError, Error, LoadError, ValidationError};
 pub use instances::{Affine3A, InstanceHit, Instances};
@@ -100,9 +101,10 @@ pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_scene,
 /// * `normal`: the **unnormalised** geometric normal `(v1 - v0) × (v2 - v0)` of the triangle
 ///   hit (its direction follows the winding, whichever side the ray came from; its length is
 ///   twice the triangle's area), as [`SceneHit::normal`] and, before the instance's
-///   transform, [`InstanceHit::normal`]. It is computed from the structure's copy of the
-///   triangle ([`Accel::triangles`]): one memory access per hit (`docs/facade.md` measures
-///   what it costs).
+///   transform, [`InstanceHit::normal`]. It is computed from the vertices of the leaf packet
+///   where the kernel found the hit (which the traversal has just loaded; the same vertices
+///   as [`Accel::triangles`]'s, bit for bit), so it costs no extra memory access
+///   (`docs/facade.md` measures it).
 ///
 /// ```
 /// use sahara::{Accel, AccelHit, Quality, Ray, Triangle, Vec3A};
@@ -273,8 +275,26 @@ impl Accel {
     /// ```
     #[inline]
     pub fn closest_hit(&self, ray: &Ray) -> Option<AccelHit> {
-        let hit = self.wide.closest_hit(ray, &mut sahara_traverse::NoStats);
-        hit.is_hit().then(|| self.accel_hit(&hit))
+        let mut at = HitLocation::default();
+        let hit = self.wide.closest_hit(ray, &mut at);
+        hit.is_hit().then(|| self.located_hit(&hit, &at))
+    }
+
+    /// [`Accel::accel_hit`] with the triangle read from the wide tree's leaf packet where the
+    /// kernel found it (just loaded by the traversal, so no cache miss, unlike the input
+    /// array), the same vertices bit for bit.
+    #[inline]
+    fn located_hit(&self, hit: &Hit, at: &HitLocation) -> AccelHit {
+        match self.wide.located_triangle(at) {
+            Some(tri) => AccelHit {
+                prim: hit.prim,
+                t: hit.t,
+                u: hit.u,
+                v: hit.v,
+                normal: tri.cross(),
+            },
+            None => self.accel_hit(hit),
+        }
     }
 
     /// The brute-force twin of [`Accel::closest_hit`]: every triangle in index order with the
@@ -303,9 +323,9 @@ impl Accel {
     /// [`Accel::closest_hit`] of every ray, traced in parallel on the current rayon pool
     /// (use `ThreadPool::install` to choose one), in the order of `rays`.
     ///
-    /// Traces the rays in chunks of 256 and reads the hit triangles for their normals in a
-    /// second pass over each chunk, whose loads do not wait on each other (one after each
-    /// traversal cost 15–20% of the batch; `docs/facade.md`).
+    /// The normal of each hit comes from the wide tree's leaf packet where the kernel found
+    /// it, which the traversal has just loaded (reading the input triangle instead cost
+    /// 7–20% of the batch; `docs/facade.md`).
     ///
     /// ```
     /// use sahara::{Accel, Quality, Ray, Triangle, Vec3A};
@@ -319,20 +339,10 @@ impl Accel {
     /// # Ok::<(), sahara::Error>(())
     /// ```
     pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<AccelHit>> {
-        const CHUNK: usize = 256;
-        let mut out = vec![None; rays.len()];
-        out.par_chunks_mut(CHUNK)
-            .zip(rays.par_chunks(CHUNK))
-            .for_each(|(out, rays)| {
-                let mut hits = [Hit::MISS; CHUNK];
-                for (h, r) in hits.iter_mut().zip(rays) {
-                    *h = self.wide.closest_hit(r, &mut sahara_traverse::NoStats);
-                }
-                for (o, h) in out.iter_mut().zip(&hits) {
-                    *o = h.is_hit().then(|| self.accel_hit(h));
-                }
-            });
-        out
+        rays.par_iter()
+            .with_min_len(64)
+            .map(|r| self.closest_hit(r))
+            .collect()
     }
 
     /// [`Accel::any_hit`] of every ray, in parallel, in the order of `rays`.

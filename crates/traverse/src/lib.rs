@@ -46,7 +46,7 @@ pub mod wide;
 pub use point::PointHit;
 pub use precision::{ParsePrecisionError, Precision};
 pub use sahara_bvh::Bvh;
-pub use stats::{NoStats, TraversalStats, WorkCounters};
+pub use stats::{HitLocation, NoStats, TraversalStats, WorkCounters};
 pub use wide::{simd_backend, Backend, Bvh4, Bvh8, WideBvh, WideNode};
 
 /// The result of a closest-hit query: distance, primitive and barycentrics (`u` weights

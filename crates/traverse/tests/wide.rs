@@ -9,8 +9,8 @@ use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
-    brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, NoStats, Precision, WideBvh,
-    WorkCounters,
+    brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, HitLocation, NoStats, Precision,
+    WideBvh, WorkCounters,
 };
 use wide_common::*;
 
@@ -23,6 +23,21 @@ fn backends() -> Vec<Backend> {
 
 fn bits(h: &Hit) -> (u32, u32, u32, u32) {
     (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
+}
+
+/// The closest hit of `wide` with backend `b`, after checking that the location it recorded
+/// names the hit triangle: `tris[hit.prim]` bit for bit (`None` for a miss).
+fn located_hit<const W: usize>(wide: &WideBvh<W>, b: Backend, tris: &[Triangle], ray: &Ray) -> Hit {
+    let mut at = HitLocation::default();
+    let hit = wide.closest_hit_with(b, ray, &mut at);
+    let vertex_bits = |t: &Triangle| t.v.map(|p| p.to_array().map(f32::to_bits));
+    let located = wide.located_triangle(&at).map(|t| vertex_bits(&t));
+    let want = hit.is_hit().then(|| vertex_bits(&tris[hit.prim as usize]));
+    assert_eq!(
+        located, want,
+        "bvh{W} {b}: the located triangle of {hit:?} for {ray:?}"
+    );
+    hit
 }
 
 /// Checks every ray against the reference with every backend of `wide`; returns the number
@@ -58,7 +73,7 @@ fn check_wide<const W: usize>(
         );
         hits += want.is_hit() as usize;
         for b in backends() {
-            let got = wide.closest_hit_with(b, ray, &mut NoStats);
+            let got = located_hit(wide, b, tris, ray);
             assert_eq!(
                 bits(&got),
                 bits(&want),
@@ -74,7 +89,7 @@ fn check_wide<const W: usize>(
         let want = brute::closest_hit_at(tris, ray, Precision::Fast);
         let want_any = brute::any_hit_at(tris, ray, Precision::Fast);
         for b in backends() {
-            let got = fast.closest_hit_with(b, ray, &mut NoStats);
+            let got = located_hit(&fast, b, tris, ray);
             assert_eq!(
                 bits(&got),
                 bits(&want),

@@ -423,7 +423,7 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats, const NE
         u: [0.0; 4],
         v: [0.0; 4],
     };
-    for p in packets {
+    for (i, p) in packets.iter().enumerate() {
         stats.triangles(p.len());
         // SAFETY: forwarded from the caller.
         let (mut hits, mut fallback) =
@@ -439,6 +439,7 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats, const NE
                     u: out.u[l],
                     v: out.v[l],
                 };
+                stats.closest_in_packet((first + i) as u32, l as u32);
                 // The culling distance follows the best hit only (an accepted `t` is at most
                 // `tmax`, so this is `widen(min(best.t, tmax))`), and only when it changes.
                 debug_assert!(best.t <= rd.tmax);
@@ -449,17 +450,20 @@ unsafe fn leaf_closest<K: Kernel<W>, const W: usize, S: TraversalStats, const NE
             while fallback != 0 {
                 let l = fallback.trailing_zeros() as usize & 3;
                 fallback &= fallback - 1;
-                scalar_lane(p, l, rd, best);
+                if scalar_lane(p, l, rd, best) {
+                    stats.closest_in_packet((first + i) as u32, l as u32);
+                }
             }
             *tfar = widen(best.t.min(rd.tmax));
         }
     }
 }
 
-/// The exact scalar test of one lane (for lanes with an edge function exactly zero).
+/// The exact scalar test of one lane (for lanes with an edge function exactly zero); true
+/// when it improved `best`.
 #[cold]
 #[inline(never)]
-fn scalar_lane(p: &TriPacket, l: usize, rd: &RayData, best: &mut Hit) {
+fn scalar_lane(p: &TriPacket, l: usize, rd: &RayData, best: &mut Hit) -> bool {
     let prim = p.prims[l];
     if let Some(h) = intersect_triangle(&rd.w, &p.triangle(l), rd.tmin, rd.tmax) {
         if best.is_improved_by(h.t, prim) {
@@ -469,8 +473,10 @@ fn scalar_lane(p: &TriPacket, l: usize, rd: &RayData, best: &mut Hit) {
                 u: h.u,
                 v: h.v,
             };
+            return true;
         }
     }
+    false
 }
 
 #[cold]

@@ -310,6 +310,18 @@ impl<const W: usize> WideBvh<W> {
         self.closest_hit_with(self.backend, ray, stats)
     }
 
+    /// The triangle of the hit a closest-hit query of this tree recorded in `at` (passed as
+    /// its statistics), read from the tree's leaf packets, which hold the vertices exactly as
+    /// given: equal to the input triangle of [`Hit::prim`]. `None` when the query recorded no
+    /// hit (a miss, or a query that does not record: the custom-primitive, filtered and
+    /// instance traversals), or when `at` indexes past this tree's packets (a location from
+    /// another tree is the caller's error; it can give another triangle of this one).
+    #[inline]
+    pub fn located_triangle(&self, at: &crate::HitLocation) -> Option<Triangle> {
+        let (packet, lane) = at.get()?;
+        Some(self.packets.get(packet)?.triangle(lane))
+    }
+
     /// Any hit (occlusion): true when a triangle is hit in `[tmin, tmax]`, with the fastest
     /// backend available. Invalid rays miss.
     #[inline]
