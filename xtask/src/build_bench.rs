@@ -7,6 +7,12 @@
 //! collapse to the 8-wide layout with 4-triangle leaf packets (`WideBvh::<8>::from_bvh`) is
 //! timed separately; Embree's time is `rtcCommitScene`, which builds its 8-wide tree directly,
 //! so the fair comparison is against sahara's build plus collapse (both are printed).
+//!
+//! After the timed rounds of a scene, one untimed build per engine measures its memory in
+//! bytes per triangle (`docs/builders-classic.md`, "Build memory"): sahara's from the xtask's
+//! counting allocator ([`crate::alloc_count`], always on, timed builds included: two relaxed
+//! atomics per allocation), Embree's from its device's memory monitor callback, which is set
+//! for the memory build only. The fields of [`BenchRow`] say what each figure counts.
 
 use std::time::Instant;
 
@@ -15,6 +21,7 @@ use sahara_builders::simd::{self, BuildSimd};
 use sahara_builders::{BuildInput, CostModel};
 use serde::Serialize;
 
+use crate::alloc_count;
 use crate::util::{self, Spread};
 
 #[derive(clap::Args)]
@@ -62,6 +69,88 @@ pub struct BenchRow {
     /// Per-round ratio of this engine's time (sahara: build + collapse) to each Embree
     /// quality's, as `(quality, spread)`.
     pub ratios: Vec<(String, Spread)>,
+    /// The build's peak memory in bytes per triangle, the figure comparable between the
+    /// engines (from one untimed build after the timed rounds): sahara: the most heap bytes
+    /// live at once from before `BuildInput::new` to the end of the collapse to bvh8, above
+    /// what was live before (the input, the binary tree and the bvh8 with every temporary;
+    /// `input_bytes_per_triangle` plus `peak_build_bvh8_bytes_per_triangle`); Embree: the most
+    /// bytes its memory monitor saw live during `rtcCommitScene`, above its vertex and index
+    /// buffers (its primitive references, the temporaries of its build and its tree). Neither
+    /// counts the loaded scene's triangles nor Embree's copy of them in its buffers.
+    pub peak_bytes_per_triangle: f64,
+    /// Bytes per triangle of the finished traversal structure: sahara: the bvh8's nodes and
+    /// leaf packets (`WideBvh::memory_bytes`); Embree: what its monitor saw live after
+    /// `rtcCommitScene` above the buffers (nodes and leaves).
+    pub structure_bytes_per_triangle: f64,
+    /// Heap bytes per triangle of the `BuildInput` (primitive boxes and centroids; sahara
+    /// only).
+    pub input_bytes_per_triangle: Option<f64>,
+    /// The most heap bytes per triangle live at once during `Builder::build`, above what was
+    /// live before it (the scene and the `BuildInput` not counted): the build's working memory
+    /// and the binary tree it returns (sahara only).
+    pub peak_build_bytes_per_triangle: Option<f64>,
+    /// As `peak_build_bytes_per_triangle`, over the build and the collapse of its tree to bvh8
+    /// with leaf packets (the binary tree stays live during the collapse; sahara only).
+    pub peak_build_bvh8_bytes_per_triangle: Option<f64>,
+    /// Bytes per triangle of the binary tree the build returns (32-byte nodes and 4-byte
+    /// references; sahara only).
+    pub bvh2_bytes_per_triangle: Option<f64>,
+    /// Bytes per triangle live in Embree's monitor before `rtcCommitScene`: its vertex and
+    /// index buffers (Embree only).
+    pub embree_buffer_bytes_per_triangle: Option<f64>,
+    /// The most bytes per triangle Embree's monitor saw live at once, buffers included (the
+    /// monitor's own peak over the scene's life; Embree only).
+    pub embree_total_peak_bytes_per_triangle: Option<f64>,
+}
+
+/// The heap bytes of one sahara build and its collapse to bvh8, from the counting allocator
+/// (see the fields of [`BenchRow`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct SaharaMemory {
+    input: usize,
+    build: usize,
+    build_bvh8: usize,
+    bvh2: usize,
+    bvh8: usize,
+}
+
+/// Builds `tris` with `builder` (in `pool`) once, from a new `BuildInput`, and collapses the
+/// tree to bvh8, measuring the heap (process-wide: nothing else may run meanwhile).
+fn sahara_memory(
+    builder: &dyn sahara_builders::Builder,
+    tris: &[sahara_geom::Triangle],
+    cost: CostModel,
+    pool: &rayon::ThreadPool,
+) -> Result<SaharaMemory> {
+    pool.install(|| {
+        let before_input = alloc_count::reset_peak();
+        let input = BuildInput::new(tris, cost)?;
+        let base = alloc_count::reset_peak();
+        let bvh = builder.build(&input)?;
+        let build = alloc_count::peak().saturating_sub(base);
+        let wide = sahara_traverse::wide::WideBvh::<8>::from_bvh(&bvh, tris);
+        let build_bvh8 = alloc_count::peak().saturating_sub(base);
+        Ok(SaharaMemory {
+            input: base.saturating_sub(before_input),
+            build,
+            build_bvh8,
+            bvh2: bvh.nodes.len() * std::mem::size_of::<sahara_bvh::Node>()
+                + bvh.prim_indices.len() * std::mem::size_of::<u32>(),
+            bvh8: wide.memory_bytes(),
+        })
+    })
+}
+
+/// One engine's memory figures on a scene, in bytes (not per triangle).
+#[derive(Clone, Copy, Debug)]
+enum Memory {
+    Sahara(SaharaMemory),
+    #[cfg_attr(not(feature = "embree"), allow(dead_code))]
+    Embree {
+        buffers: usize,
+        commit_peak: usize,
+        retained: usize,
+    },
 }
 
 /// What builds a scene in a round: one of sahara's builders (with its SIMD cap) or Embree at
@@ -120,6 +209,38 @@ fn time_embree(timer: &Option<Timer>, tris: &[sahara_geom::Triangle], quality: u
     }
 }
 
+/// Embree's memory figures of one untimed build at `quality` (its device memory monitor,
+/// `BuildTimer::measure_memory`).
+#[cfg_attr(not(feature = "embree"), allow(unused_variables))]
+fn embree_memory(
+    timer: &Option<Timer>,
+    tris: &[sahara_geom::Triangle],
+    quality: u8,
+) -> Result<Memory> {
+    #[cfg(feature = "embree")]
+    {
+        let m = timer
+            .as_ref()
+            .expect("a timer when Embree is measured")
+            .measure_memory(tris, quality)?;
+        if m.left_after_release != 0 {
+            eprintln!(
+                "note: Embree's monitor counts {} bytes live after the scene's release",
+                m.left_after_release
+            );
+        }
+        Ok(Memory::Embree {
+            buffers: m.scene_bytes,
+            commit_peak: m.commit_peak_bytes,
+            retained: m.retained_bytes,
+        })
+    }
+    #[cfg(not(feature = "embree"))]
+    {
+        bail!("built without the `embree` feature")
+    }
+}
+
 #[cfg(feature = "embree")]
 fn quality_of(name: &str) -> Result<u8> {
     crate::engine::embree::parse_quality(name)
@@ -141,6 +262,7 @@ struct Samples {
     build: Vec<f64>,
     collapse: Vec<f64>,
     sah: Option<f64>,
+    memory: Option<Memory>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -222,6 +344,16 @@ pub fn run(a: Args) -> Result<()> {
             }
             eprintln!("{}: round {}/{rounds}", scene.name, round + 1);
         }
+        // Memory, untimed: one build per engine.
+        for (e, s) in engines.iter().zip(samples.iter_mut()) {
+            s.memory = Some(match e {
+                BuildEngine::Sahara(_, b, level) => {
+                    simd::set_max(*level);
+                    Memory::Sahara(sahara_memory(b.as_ref(), tris, cost, &pool)?)
+                }
+                BuildEngine::Embree(_, q) => embree_memory(&timer, tris, *q)?,
+            });
+        }
         let embree_idx: Vec<usize> = (0..engines.len())
             .filter(|&i| matches!(engines[i], BuildEngine::Embree(..)))
             .collect();
@@ -249,6 +381,24 @@ pub fn run(a: Args) -> Result<()> {
                 })
                 .collect();
             let sahara = matches!(e, BuildEngine::Sahara(..));
+            let per = |bytes: usize| bytes as f64 / tris.len().max(1) as f64;
+            let memory = s.memory.expect("measured above");
+            let (peak, structure) = match memory {
+                Memory::Sahara(m) => (m.input + m.build_bvh8, m.bvh8),
+                Memory::Embree {
+                    commit_peak,
+                    retained,
+                    ..
+                } => (commit_peak, retained),
+            };
+            let sahara_memory = match memory {
+                Memory::Sahara(m) => Some(m),
+                Memory::Embree { .. } => None,
+            };
+            let embree_buffers = match memory {
+                Memory::Embree { buffers, .. } => Some(buffers),
+                Memory::Sahara(_) => None,
+            };
             rows.push(BenchRow {
                 scene: scene.name.clone(),
                 triangles: tris.len(),
@@ -260,6 +410,14 @@ pub fn run(a: Args) -> Result<()> {
                 total_ms: sahara.then(|| Spread::of(&total)),
                 sah: s.sah,
                 ratios,
+                peak_bytes_per_triangle: per(peak),
+                structure_bytes_per_triangle: per(structure),
+                input_bytes_per_triangle: sahara_memory.map(|m| per(m.input)),
+                peak_build_bytes_per_triangle: sahara_memory.map(|m| per(m.build)),
+                peak_build_bvh8_bytes_per_triangle: sahara_memory.map(|m| per(m.build_bvh8)),
+                bvh2_bytes_per_triangle: sahara_memory.map(|m| per(m.bvh2)),
+                embree_buffer_bytes_per_triangle: embree_buffers.map(per),
+                embree_total_peak_bytes_per_triangle: embree_buffers.map(|b| per(b + peak)),
             });
         }
     }
@@ -295,5 +453,73 @@ pub fn run(a: Args) -> Result<()> {
             ratios.join(", ")
         );
     }
+    print_memory(&rows);
     Ok(())
+}
+
+/// The memory table: bytes per triangle of every engine on every scene.
+fn print_memory(rows: &[BenchRow]) {
+    println!();
+    println!(
+        "memory in bytes per triangle (one untimed build): sahara: heap above the scene, from \
+         the counting allocator; Embree: its memory monitor, above its vertex and index buffers"
+    );
+    println!(
+        "{:<18} {:<14} {:>8} {:>8} {:>11} {:>8} {:>10} {:>8} {:>11}",
+        "scene",
+        "engine",
+        "input",
+        "build",
+        "build+bvh8",
+        "peak",
+        "structure",
+        "buffers",
+        "peak+buffers"
+    );
+    let f = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1}"));
+    for r in rows {
+        println!(
+            "{:<18} {:<14} {:>8} {:>8} {:>11} {:>8.1} {:>10.1} {:>8} {:>11}",
+            r.scene,
+            r.engine,
+            f(r.input_bytes_per_triangle),
+            f(r.peak_build_bytes_per_triangle),
+            f(r.peak_build_bvh8_bytes_per_triangle),
+            r.peak_bytes_per_triangle,
+            r.structure_bytes_per_triangle,
+            f(r.embree_buffer_bytes_per_triangle),
+            f(r.embree_total_peak_bytes_per_triangle),
+        );
+    }
+    println!(
+        "input: BuildInput; build, build+bvh8: peak above the input; peak: the comparable \
+         figure (sahara: input + build+bvh8; Embree: peak of rtcCommitScene above its buffers); \
+         structure: the finished bvh8 / Embree's retained tree"
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_build_holds_at_least_its_trees() {
+        let _only = alloc_count::MEASURING
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        let tris = sahara_scene::soup(20_000, 1).triangles();
+        let pool = util::pool(Some(2)).unwrap();
+        for name in ["binned", "sbvh"] {
+            let b = util::builder(name).unwrap();
+            let m = sahara_memory(b.as_ref(), &tris, CostModel::default(), &pool).unwrap();
+            // Boxes and centroids: more than 24 bytes per triangle.
+            assert!(m.input > 24 * tris.len(), "{name}: {m:?}");
+            assert!(m.bvh2 > 0 && m.bvh8 > 0, "{name}: {m:?}");
+            // The binary tree is live at the build's end, and still during the collapse; the
+            // peak over the build and the collapse is at least the build's.
+            assert!(m.build >= m.bvh2, "{name}: {m:?}");
+            assert!(m.build_bvh8 >= m.bvh2 + m.bvh8, "{name}: {m:?}");
+            assert!(m.build_bvh8 >= m.build, "{name}: {m:?}");
+        }
+    }
 }

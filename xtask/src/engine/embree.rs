@@ -32,6 +32,7 @@
 //! Invalid rays ([`Ray::is_valid`]) miss without calling Embree (its behaviour on NaN is
 //! undefined).
 
+use crate::alloc_count::RunningPeak;
 use anyhow::{bail, ensure, Context, Result};
 use embree::sys;
 use sahara_geom::{Ray, Triangle};
@@ -462,8 +463,14 @@ impl Tracer for EmbreeTracer {
 /// that its thread pool is up before the first timed build) and, per build, a new scene with
 /// one triangle geometry, of which only `rtcCommitScene` is timed (the BVH build; Embree
 /// builds its 8-wide tree directly on this machine). See docs/embree.md.
+///
+/// It also measures a build's memory ([`BuildTimer::measure_memory`]) through the device's
+/// memory monitor callback, which is set only for that (untimed) build.
 pub struct BuildTimer {
     device: sys::RTCDevice,
+    /// The running sum of the monitor's byte deltas; boxed, so that its address, which the
+    /// device holds while the monitor is set, stays put.
+    monitor: Box<RunningPeak>,
 }
 
 // SAFETY: the device is only used by the thread that owns the timer (the type is not shared).
@@ -486,6 +493,37 @@ pub fn parse_quality(name: &str) -> Result<u8> {
     })
 }
 
+/// The bytes Embree's memory monitor saw during one build of [`BuildTimer::measure_memory`]:
+/// every allocation Embree reports to `rtcSetDeviceMemoryMonitorFunction`, which are its
+/// geometry buffers, its monitored vectors (the builders' primitive references and other
+/// arrays of the build) and the blocks of its node and leaf allocator; not its small
+/// temporaries on the C++ heap or the stack, nor the caller's triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EmbreeMemory {
+    /// Live before `rtcCommitScene`: the vertex and index buffers of the geometry (here 16
+    /// bytes per vertex, three vertices and 12 bytes of indices per triangle) and whatever the
+    /// geometry's commit allocated.
+    pub scene_bytes: usize,
+    /// The most bytes live at once during `rtcCommitScene`, above `scene_bytes`: the build's
+    /// working memory and the tree it keeps.
+    pub commit_peak_bytes: usize,
+    /// Live after `rtcCommitScene`, above `scene_bytes`: the tree Embree keeps (nodes and
+    /// leaves with their copies of the triangles).
+    pub retained_bytes: usize,
+    /// Live after the scene was released (0 unless Embree keeps memory past its scene).
+    pub left_after_release: i64,
+}
+
+/// The device's memory monitor: adds Embree's byte delta to the [`RunningPeak`] at `ptr` and
+/// lets every allocation go ahead.
+unsafe extern "C" fn monitor(ptr: *mut std::ffi::c_void, bytes: sys::ssize_t, _post: bool) -> bool {
+    // SAFETY: `ptr` is the timer's boxed `RunningPeak`, set with this callback by
+    // `measure_memory` and unset before it returns, so it is alive whenever Embree calls.
+    let m = unsafe { &*(ptr as *const RunningPeak) };
+    m.record(bytes as i64);
+    true
+}
+
 impl BuildTimer {
     /// A device with `threads` build threads (`threads=N` in the device configuration,
     /// followed by `SAHARA_EMBREE_CONFIG` if set).
@@ -504,12 +542,61 @@ impl BuildTimer {
             let e = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
             bail!("rtcNewDevice failed ({e:?}); is libembree3 usable on this CPU?");
         }
-        Ok(Self { device })
+        Ok(Self {
+            device,
+            monitor: Box::new(RunningPeak::new()),
+        })
     }
 
     /// Builds Embree's BVH over `tris` at `quality` (0, 1, 2: LOW, MEDIUM, HIGH; scene flags
     /// NONE) and returns the seconds `rtcCommitScene` took.
     pub fn time_build(&self, tris: &[Triangle], quality: u8) -> Result<f64> {
+        self.with_scene(tris, quality, |scene| {
+            let t0 = std::time::Instant::now();
+            // SAFETY: a live scene with its geometry attached and committed.
+            unsafe { sys::rtcCommitScene(scene) };
+            t0.elapsed().as_secs_f64()
+        })
+    }
+
+    /// Builds Embree's BVH over `tris` at `quality`, as [`BuildTimer::time_build`] does, with
+    /// the device's memory monitor summing Embree's allocations from the new scene's first
+    /// to its release (see [`EmbreeMemory`]). Not for timing: the monitor is a callback per
+    /// allocation.
+    pub fn measure_memory(&self, tris: &[Triangle], quality: u8) -> Result<EmbreeMemory> {
+        let m: &RunningPeak = &self.monitor;
+        m.record(-m.live());
+        m.reset_peak();
+        let ptr = m as *const RunningPeak as *mut std::ffi::c_void;
+        // SAFETY: a live device; `ptr` outlives the monitor's setting (unset below).
+        unsafe { sys::rtcSetDeviceMemoryMonitorFunction(self.device, Some(monitor), ptr) };
+        let result = self.with_scene(tris, quality, |scene| {
+            let before = m.reset_peak();
+            // SAFETY: a live scene with its geometry attached and committed.
+            unsafe { sys::rtcCommitScene(scene) };
+            (before, m.peak(), m.live())
+        });
+        // SAFETY: a live device; no build runs now, so Embree calls the monitor no more.
+        unsafe { sys::rtcSetDeviceMemoryMonitorFunction(self.device, None, std::ptr::null_mut()) };
+        let (before, peak, after) = result?;
+        let bytes = |b: i64| b.max(0) as usize;
+        Ok(EmbreeMemory {
+            scene_bytes: bytes(before),
+            commit_peak_bytes: bytes(peak - before),
+            retained_bytes: bytes(after - before),
+            left_after_release: m.live(),
+        })
+    }
+
+    /// Creates a scene over `tris` at `quality` (scene flags NONE) with one triangle geometry,
+    /// runs `commit` on it (which calls `rtcCommitScene`), checks the device for errors and
+    /// releases the scene.
+    fn with_scene<R>(
+        &self,
+        tris: &[Triangle],
+        quality: u8,
+        commit: impl FnOnce(sys::RTCScene) -> R,
+    ) -> Result<R> {
         let n = tris.len();
         ensure!(
             n > 0 && n.checked_mul(3).is_some_and(|v| v <= u32::MAX as usize),
@@ -542,11 +629,9 @@ impl BuildTimer {
                 check(device, "committing the triangle geometry")?;
                 sys::rtcSetSceneBuildQuality(scene, config.quality());
                 sys::rtcSetSceneFlags(scene, config.flags());
-                let t0 = std::time::Instant::now();
-                sys::rtcCommitScene(scene);
-                let secs = t0.elapsed().as_secs_f64();
+                let r = commit(scene);
                 check(device, "committing the scene (building its BVH)")?;
-                Ok(secs)
+                Ok(r)
             })();
             sys::rtcReleaseScene(scene);
             result
@@ -621,6 +706,25 @@ mod tests {
             let r = Ray::new(Vec3A::new(0.75, 0.75, 2.0), down, 0.0, f32::INFINITY);
             assert_eq!(t.closest_hit_fast(&r).prim, 1, "{b}");
         }
+    }
+
+    #[test]
+    fn the_memory_monitor_sees_a_build() {
+        let tris = sahara_scene::soup(2000, 1).triangles();
+        let timer = BuildTimer::new(1).unwrap();
+        for quality in 0..3 {
+            let m = timer.measure_memory(&tris, quality).unwrap();
+            // The buffers: 16 bytes per vertex, three vertices and 12 bytes of indices per
+            // triangle.
+            assert!(m.scene_bytes >= 60 * tris.len(), "{quality}: {m:?}");
+            assert!(m.retained_bytes > 0, "{quality}: {m:?}");
+            assert!(m.commit_peak_bytes >= m.retained_bytes, "{quality}: {m:?}");
+            assert_eq!(m.left_after_release, 0, "{quality}: {m:?}");
+        }
+        // The monitor is unset after the measurement: a timed build adds nothing.
+        timer.monitor.reset_peak();
+        timer.time_build(&tris, 1).unwrap();
+        assert_eq!((timer.monitor.live(), timer.monitor.peak()), (0, 0));
     }
 
     #[test]
