@@ -1,6 +1,7 @@
 //! Mesh files to built structures (`Accel::build_from_file`, `SceneBuilder::add_file`): a
-//! procedural OBJ written to a temporary file builds the same tree as the same mesh given in
-//! memory, and every missing or broken file is a typed error naming it, never a panic.
+//! procedural OBJ and the same mesh as a GLB, written to temporary files, build the same tree
+//! as the mesh given in memory, and every missing or broken file is a typed error naming it,
+//! never a panic.
 
 use std::path::PathBuf;
 
@@ -11,9 +12,9 @@ use sahara::{Accel, Error, Quality, Ray, SceneBuilder, Vec3A, ALL_MASK};
 struct TempFile(PathBuf);
 
 impl TempFile {
-    fn new(name: &str, contents: &str) -> TempFile {
+    fn new(name: &str, contents: impl AsRef<[u8]>) -> TempFile {
         let path = std::env::temp_dir().join(format!("sahara-files-{}-{name}", std::process::id()));
-        std::fs::write(&path, contents).unwrap();
+        std::fs::write(&path, contents.as_ref()).unwrap();
         TempFile(path)
     }
 }
@@ -65,14 +66,17 @@ fn rays() -> Vec<Ray> {
         .collect()
 }
 
-#[test]
-fn an_obj_file_builds_what_its_mesh_builds_in_memory() {
-    let (obj, positions, indices) = height_field();
-    let file = TempFile::new("field.obj", &obj);
+/// `file` builds, at each level, the triangles, tree and answers of the mesh given in memory.
+fn builds_like_memory(
+    file: &TempFile,
+    positions: &[[f32; 3]],
+    indices: &[[u32; 3]],
+    levels: &[Quality],
+) {
     let rays = rays();
-    for q in [Quality::Fast, Quality::Medium, Quality::High] {
+    for &q in levels {
         let loaded = Accel::build_from_file(&file.0, q).unwrap();
-        let direct = Accel::build_indexed(&positions, &indices, q).unwrap();
+        let direct = Accel::build_indexed(positions, indices, q).unwrap();
         assert_eq!(loaded.triangles(), direct.triangles(), "{q}");
         assert_eq!(loaded.bvh(), direct.bvh(), "{q}");
         let hits = loaded.closest_hits(&rays);
@@ -85,6 +89,19 @@ fn an_obj_file_builds_what_its_mesh_builds_in_memory() {
             assert_eq!(*hit, loaded.brute_closest_hit(ray), "{q}");
         }
     }
+}
+
+#[test]
+fn an_obj_file_builds_what_its_mesh_builds_in_memory() {
+    let (obj, positions, indices) = height_field();
+    let file = TempFile::new("field.obj", &obj);
+    let rays = rays();
+    builds_like_memory(
+        &file,
+        &positions,
+        &indices,
+        &[Quality::Fast, Quality::Medium, Quality::High],
+    );
     // The same file as one geometry of a scene, next to another.
     let mut b = SceneBuilder::new();
     let other = b.add_indexed(
@@ -100,6 +117,76 @@ fn an_obj_file_builds_what_its_mesh_builds_in_memory() {
         assert_eq!(hit.geometry, field);
         assert_eq!(Some(hit), scene.brute_closest_hit(ray, ALL_MASK, None));
     }
+}
+
+/// A GLB file (glTF 2.0, binary) of one mesh: float positions and `u32` indices in one
+/// buffer, one node without a transform.
+fn glb(positions: &[[f32; 3]], indices: &[[u32; 3]]) -> Vec<u8> {
+    let mut bin: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    let index_offset = bin.len();
+    bin.extend(indices.iter().flatten().flat_map(|i| i.to_le_bytes()));
+    let (lo, hi) = positions
+        .iter()
+        .fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
+            (
+                std::array::from_fn(|a| lo[a].min(p[a])),
+                std::array::from_fn(|a| hi[a].max(p[a])),
+            )
+        });
+    let mut json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"buffers":[{{"byteLength":{}}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{index_offset}}},{{"buffer":0,"byteOffset":{index_offset},"byteLength":{}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3","min":{lo:?},"max":{hi:?}}},
+{{"bufferView":1,"componentType":5125,"count":{},"type":"SCALAR"}}]}}"#,
+        bin.len(),
+        bin.len() - index_offset,
+        positions.len(),
+        3 * indices.len(),
+    );
+    while json.len() % 4 != 0 {
+        json.push(' ');
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    for word in [0x4654_6C67, 2, total as u32, json.len() as u32, 0x4E4F_534A] {
+        out.extend_from_slice(&u32::to_le_bytes(word)); // "glTF", version, length, "JSON"
+    }
+    out.extend_from_slice(json.as_bytes());
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(&0x004E_4942u32.to_le_bytes()); // "BIN\0"
+    out.extend_from_slice(&bin);
+    out
+}
+
+#[test]
+fn a_glb_file_builds_what_its_mesh_builds_in_memory() {
+    let (_, positions, indices) = height_field();
+    let data = glb(&positions, &indices);
+    let file = TempFile::new("field.glb", &data);
+    builds_like_memory(&file, &positions, &indices, &[Quality::Fast, Quality::High]);
+    let mut b = SceneBuilder::new();
+    let field = b.add_file(&file.0).unwrap();
+    let scene = b.build(Quality::Medium).unwrap();
+    assert_eq!(scene.geometry_len(field), Some(indices.len()));
+    // Cut short, and with an index past the positions: typed errors naming the file.
+    let half = TempFile::new("half.glb", &data[..data.len() / 2]);
+    match Accel::build_from_file(&half.0, Quality::Fast) {
+        Err(Error::File(e)) => assert!(e.to_string().contains("half.glb"), "{e}"),
+        other => panic!("expected a file error, got {other:?}"),
+    }
+    let mut bad = indices.clone();
+    bad[7][1] = positions.len() as u32;
+    let bad = TempFile::new("index.glb", glb(&positions, &bad));
+    assert!(matches!(
+        Accel::build_from_file(&bad.0, Quality::Fast),
+        Err(Error::File(_))
+    ));
 }
 
 /// Whether an error is the expected variant.
