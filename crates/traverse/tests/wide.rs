@@ -14,17 +14,6 @@ use sahara_traverse::{
 };
 use wide_common::*;
 
-fn backends() -> Vec<Backend> {
-    Backend::ALL
-        .into_iter()
-        .filter(|b| b.is_available())
-        .collect()
-}
-
-fn bits(h: &Hit) -> (u32, u32, u32, u32) {
-    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
-}
-
 /// Checks every ray against the reference with every backend of `wide`; returns the number
 /// of closest hits found.
 ///
@@ -57,35 +46,27 @@ fn check_wide<const W: usize>(
             "{what}: scalar any hit of ray {i} {ray:?}",
         );
         hits += want.is_hit() as usize;
-        for b in backends() {
-            let got = wide.closest_hit_with(b, ray, &mut NoStats);
-            assert_eq!(
-                bits(&got),
-                bits(&want),
-                "{what}: bvh{W} {b} closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
-            );
-            let got_any = wide.any_hit_with(b, ray, &mut NoStats);
-            assert_eq!(
-                got_any, want_any,
-                "{what}: bvh{W} {b} any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
-            );
-        }
+        // Every backend of `tree` answers as `want` and `want_any` (`precision` names the test).
+        let backends_agree = |tree: &WideBvh<W>, want: Hit, want_any: bool, precision: &str| {
+            for b in backends() {
+                let got = tree.closest_hit_with(b, ray, &mut NoStats);
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "{what}: bvh{W} {b} {precision}closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
+                );
+                let got_any = tree.any_hit_with(b, ray, &mut NoStats);
+                assert_eq!(
+                    got_any, want_any,
+                    "{what}: bvh{W} {b} {precision}any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
+                );
+            }
+        };
+        backends_agree(wide, want, want_any, "");
         // The fast precision against its own twin.
         let want = brute::closest_hit_at(tris, ray, Precision::Fast);
         let want_any = brute::any_hit_at(tris, ray, Precision::Fast);
-        for b in backends() {
-            let got = fast.closest_hit_with(b, ray, &mut NoStats);
-            assert_eq!(
-                bits(&got),
-                bits(&want),
-                "{what}: bvh{W} {b} fast closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
-            );
-            let got_any = fast.any_hit_with(b, ray, &mut NoStats);
-            assert_eq!(
-                got_any, want_any,
-                "{what}: bvh{W} {b} fast any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
-            );
-        }
+        backends_agree(&fast, want, want_any, "fast ");
     }
     hits
 }
