@@ -9,10 +9,11 @@ use std::sync::Arc;
 use sahara::sahara_traverse::instance::InstanceError;
 use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::rays::segments_in;
 use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::rng::Pcg32;
 use sahara_geom::Aabb;
+
+mod common;
 
 /// A random placement: rotation, non-uniform scale (a mirror one time in five), translation
 /// in a 12-unit cube.
@@ -62,12 +63,7 @@ fn world(scene: &Instances) -> Aabb {
 
 /// Segments and unbounded rays through `b`.
 fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 4);
-    let mut v = segments_in(b, n, &mut rng);
-    for r in v.iter_mut().skip(1).step_by(2) {
-        *r = Ray::new(r.origin, r.direction(), 0.0, f32::INFINITY);
-    }
-    v
+    common::segments_and_unbounded_rays(b, n, seed, 4)
 }
 
 /// Every query of `scene` under `mask` against the brute-force twins; returns the hit count.
