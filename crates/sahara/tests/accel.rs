@@ -209,12 +209,20 @@ fn saved_structures_round_trip_through_a_file() {
     ));
 }
 
+/// The saved file of the structure over the scene's first 40 triangles.
+fn saved_small(quality: Quality) -> Vec<u8> {
+    let tris: Vec<Triangle> = scene().into_iter().take(40).collect();
+    let mut file = Vec::new();
+    Accel::build(&tris, quality)
+        .unwrap()
+        .save(&mut file)
+        .unwrap();
+    file
+}
+
 #[test]
 fn broken_files_are_typed_errors() {
-    let tris: Vec<Triangle> = scene().into_iter().take(40).collect();
-    let accel = Accel::build(&tris, Quality::High).unwrap();
-    let mut file = Vec::new();
-    accel.save(&mut file).unwrap();
+    let file = saved_small(Quality::High);
     let load = |bytes: &[u8]| Accel::load(&mut &bytes[..]);
 
     // Every truncation.
@@ -266,10 +274,7 @@ fn broken_files_are_typed_errors() {
 /// makes): each inconsistency is a typed error.
 #[test]
 fn consistent_checksums_over_bad_content_are_typed_errors() {
-    let tris: Vec<Triangle> = scene().into_iter().take(40).collect();
-    let accel = Accel::build(&tris, Quality::Medium).unwrap();
-    let mut file = Vec::new();
-    accel.save(&mut file).unwrap();
+    let file = saved_small(Quality::Medium);
     let reseal = |mut bytes: Vec<u8>| {
         common::reseal(&mut bytes, 40);
         Accel::load(&mut bytes.as_slice())
