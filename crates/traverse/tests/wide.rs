@@ -6,7 +6,7 @@ mod wide_common;
 
 use sahara_bvh::Bvh;
 use sahara_fixtures::soups::mixed_soup;
-use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast};
+use sahara_geom::intersect::{intersect_ray_triangle, intersect_ray_triangle_fast};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
     brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, NoStats, Precision, WideBvh,
@@ -348,7 +348,7 @@ fn packet_test_is_bit_exact() {
                 0.0,
                 if k % 7 == 0 { 0.999 } else { f32::INFINITY },
             );
-            let want = intersect_triangle(&ray.watertight(), tri, ray.tmin, ray.tmax);
+            let want = intersect_ray_triangle(&ray, tri);
             let want = want.map_or(Hit::MISS, |h| Hit {
                 t: h.t,
                 prim: 0,
@@ -369,14 +369,7 @@ fn packet_test_is_bit_exact() {
                 assert_eq!(w8.any_hit_with(b, &ray, &mut NoStats), want.is_hit());
             }
             // The Möller–Trumbore lanes against the scalar fast test.
-            let want = intersect_triangle_fast(
-                ray.origin,
-                ray.direction(),
-                ray.inv_direction(),
-                tri,
-                ray.tmin,
-                ray.tmax,
-            );
+            let want = intersect_ray_triangle_fast(&ray, tri);
             let want = want.map_or(Hit::MISS, |h| Hit {
                 t: h.t,
                 prim: 0,
