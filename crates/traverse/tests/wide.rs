@@ -6,7 +6,7 @@ mod wide_common;
 
 use sahara_bvh::Bvh;
 use sahara_fixtures::soups::mixed_soup;
-use sahara_geom::intersect::{intersect_ray_triangle, intersect_ray_triangle_fast};
+use sahara_geom::intersect::{intersect_ray_triangle, intersect_ray_triangle_fast, TriangleHit};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
     brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, NoStats, Precision, WideBvh,
@@ -334,6 +334,15 @@ fn packet_test_is_bit_exact() {
         let one = [*tri];
         let bvh = median_bvh(&one, 1);
         let (w4, w8) = (Bvh4::from_bvh(&bvh, &one), Bvh8::from_bvh(&bvh, &one));
+        // The one triangle's test result as the kernels' hit.
+        let as_hit = |h: Option<TriangleHit>| {
+            h.map_or(Hit::MISS, |h| Hit {
+                t: h.t,
+                prim: 0,
+                u: h.u,
+                v: h.v,
+            })
+        };
         for k in 0..40 {
             let target = match k % 4 {
                 0 => tri.v[k % 3],
@@ -348,13 +357,7 @@ fn packet_test_is_bit_exact() {
                 0.0,
                 if k % 7 == 0 { 0.999 } else { f32::INFINITY },
             );
-            let want = intersect_ray_triangle(&ray, tri);
-            let want = want.map_or(Hit::MISS, |h| Hit {
-                t: h.t,
-                prim: 0,
-                u: h.u,
-                v: h.v,
-            });
+            let want = as_hit(intersect_ray_triangle(&ray, tri));
             for b in backends() {
                 assert_eq!(
                     bits(&w4.closest_hit_with(b, &ray, &mut NoStats)),
@@ -369,13 +372,7 @@ fn packet_test_is_bit_exact() {
                 assert_eq!(w8.any_hit_with(b, &ray, &mut NoStats), want.is_hit());
             }
             // The Möller–Trumbore lanes against the scalar fast test.
-            let want = intersect_ray_triangle_fast(&ray, tri);
-            let want = want.map_or(Hit::MISS, |h| Hit {
-                t: h.t,
-                prim: 0,
-                u: h.u,
-                v: h.v,
-            });
+            let want = as_hit(intersect_ray_triangle_fast(&ray, tri));
             let (f4, f8) = (
                 w4.clone().with_precision(Precision::Fast),
                 w8.clone().with_precision(Precision::Fast),
