@@ -8,6 +8,7 @@
 //! Averages over scenes resample each scene's rounds separately (a stratified bootstrap) and
 //! take the geometric mean of the scenes' medians.
 
+use sahara_oracle::SplitMix64;
 use serde::Serialize;
 
 /// Bootstrap resamples per interval.
@@ -107,24 +108,6 @@ fn quantile(v: &[f64], q: f64) -> f64 {
     let i = pos.floor() as usize;
     let j = (i + 1).min(v.len() - 1);
     v[i] + (v[j] - v[i]) * (pos - i as f64)
-}
-
-/// SplitMix64 (Steele et al. 2014): a small deterministic generator for the resampling.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `0..n` (`n` > 0; the modulo bias is below 2^-40 for the counts used here).
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
 }
 
 #[cfg(test)]

@@ -83,12 +83,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 )
                 .status()
                 .context("running cargo miri")?;
-            eprintln!(
-                "== {package} --test {test}, {build}: {} in {:.0} s",
-                if status.success() { "ok" } else { "FAILED" },
-                t0.elapsed().as_secs_f64()
-            );
-            if !status.success() {
+            if !crate::util::report_status(status, t0, &format!("{package} --test {test}, {build}"))
+            {
                 failed.push(format!("{package} --test {test} ({build})"));
             }
         }

@@ -64,12 +64,8 @@ fn run_short(args: &Args) -> anyhow::Result<()> {
         cmd.arg("--").args(&args.test_args);
     }
     let status = cmd.status().context("running cargo test")?;
-    eprintln!(
-        "== address sanitizer (short form): {} in {:.0} s",
-        if status.success() { "ok" } else { "FAILED" },
-        t0.elapsed().as_secs_f64()
-    );
-    ensure!(status.success(), "the short AddressSanitizer run failed");
+    let ok = crate::util::report_status(status, t0, "address sanitizer (short form)");
+    ensure!(ok, "the short AddressSanitizer run failed");
     Ok(())
 }
 
@@ -122,12 +118,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 cmd.arg("--").args(&args.test_args);
             }
             let status = cmd.status().context("running cargo +nightly test")?;
-            eprintln!(
-                "== {sanitizer}: {package}: {} in {:.0} s",
-                if status.success() { "ok" } else { "FAILED" },
-                t0.elapsed().as_secs_f64()
-            );
-            if !status.success() {
+            if !crate::util::report_status(status, t0, &format!("{sanitizer}: {package}")) {
                 failed.push(format!("{package} ({sanitizer})"));
             }
         }

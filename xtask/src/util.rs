@@ -302,6 +302,18 @@ pub fn parse_camera(s: &str) -> std::result::Result<sahara_scene::Camera, String
     s.parse::<sahara_scene::Camera>().map_err(|e| e.to_string())
 }
 
+/// Prints `== {what}: ok in N s` (`FAILED` when `status` is not a success), N the seconds
+/// since `t0`, the last line of one run of the `miri` and `sanitize` commands; returns
+/// whether the run succeeded.
+pub fn report_status(status: std::process::ExitStatus, t0: Instant, what: &str) -> bool {
+    eprintln!(
+        "== {what}: {} in {:.0} s",
+        if status.success() { "ok" } else { "FAILED" },
+        t0.elapsed().as_secs_f64()
+    );
+    status.success()
+}
+
 /// Asserts that every `(package, test file)` of a command's suite list exists as
 /// `crates/<package without "sahara-">/tests/<test>.rs`, so that a renamed test file cannot
 /// drop out of `verify` or `miri` silently.

@@ -6,8 +6,10 @@ use sahara_fixtures::soups::{self, clustered_centroid, sized_soup};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
+mod common;
 mod spatial_support;
-use spatial_support::{assert_same_tree_whatever_the_threads, max_leaf};
+use common::{assert_empty_input_builds_empty_tree, assert_rejected};
+use spatial_support::{assert_same_tree_whatever_the_threads, build_valid};
 
 /// Random triangles of random sizes (up to 5) in a 100³ box.
 fn soup(n: usize, seed: u64) -> Vec<Triangle> {
@@ -25,12 +27,8 @@ fn flat_scene(n: usize) -> Vec<Triangle> {
 }
 
 fn build(tris: &[Triangle], config: BinnedConfig) -> Bvh {
-    let input = BuildInput::new(tris, CostModel::default()).unwrap();
-    let bvh = BinnedBuilder::new(config).build(&input).unwrap();
-    bvh.validate(tris).unwrap();
-    assert!(!bvh.spatial_splits);
-    assert!(max_leaf(&bvh) <= config.max_leaf_size);
-    bvh
+    let (builder, max_leaf) = (BinnedBuilder::new(config), config.max_leaf_size);
+    build_valid(&builder, tris, CostModel::default(), max_leaf, Some(false))
 }
 
 #[test]
@@ -70,12 +68,7 @@ fn degenerate_inputs() {
         &[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)],
         BinnedConfig::DEFAULT,
     );
-
-    let input = BuildInput::new(&[], CostModel::default()).unwrap();
-    assert_eq!(
-        BinnedBuilder::default().build(&input).unwrap(),
-        Bvh::empty()
-    );
+    assert_empty_input_builds_empty_tree(&BinnedBuilder::default());
 }
 
 #[test]
@@ -98,17 +91,17 @@ fn adversarial_geometric_spacing_is_depth_bounded() {
 
 #[test]
 fn invalid_config_is_rejected() {
-    let tris = soup(10, 1);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    for config in [
-        BinnedConfig::with_bins(1),
-        BinnedConfig {
-            max_leaf_size: 0,
-            ..BinnedConfig::DEFAULT
-        },
-    ] {
-        assert!(BinnedBuilder::new(config).build(&input).is_err());
-    }
+    assert_rejected(
+        &soup(10, 1),
+        [
+            BinnedConfig::with_bins(1),
+            BinnedConfig {
+                max_leaf_size: 0,
+                ..BinnedConfig::DEFAULT
+            },
+        ],
+        BinnedBuilder::new,
+    );
 }
 
 #[test]

@@ -1,21 +1,19 @@
 //! Tests of the Morton-cluster binned builder (`cluster-binned`).
 
 use sahara_builders::cluster_binned::{ClusterBinnedBuilder, ClusterBinnedConfig};
-use sahara_builders::{BuildError, BuildInput, Builder, Bvh};
+use sahara_builders::{BuildInput, Builder, Bvh};
 use sahara_fixtures::soups::{self, sized_soup};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::CostModel;
 
+mod common;
 mod spatial_support;
-use spatial_support::{assert_same_tree_whatever_the_threads, max_leaf};
+use common::assert_rejected;
+use spatial_support::{assert_same_tree_whatever_the_threads, build_valid};
 
 fn build(tris: &[Triangle], config: ClusterBinnedConfig) -> Bvh {
-    let input = BuildInput::new(tris, CostModel::default()).unwrap();
-    let bvh = ClusterBinnedBuilder::new(config).build(&input).unwrap();
-    bvh.validate(tris).unwrap();
-    assert!(!bvh.spatial_splits);
-    assert!(max_leaf(&bvh) <= config.max_leaf_size);
-    bvh
+    let (builder, max_leaf) = (ClusterBinnedBuilder::new(config), config.max_leaf_size);
+    build_valid(&builder, tris, CostModel::default(), max_leaf, Some(false))
 }
 
 #[test]
@@ -62,30 +60,27 @@ fn the_tree_does_not_depend_on_the_thread_count() {
 
 #[test]
 fn invalid_configurations_are_rejected() {
-    let tris = sized_soup(10, 1, 5.0);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    for config in [
-        ClusterBinnedConfig {
-            bins: 1,
-            ..ClusterBinnedConfig::DEFAULT
-        },
-        ClusterBinnedConfig {
-            cluster_size: 0,
-            ..ClusterBinnedConfig::DEFAULT
-        },
-        ClusterBinnedConfig {
-            max_leaf_size: 0,
-            always_leaf: 0,
-            ..ClusterBinnedConfig::DEFAULT
-        },
-        ClusterBinnedConfig {
-            always_leaf: 9,
-            ..ClusterBinnedConfig::DEFAULT
-        },
-    ] {
-        assert!(matches!(
-            ClusterBinnedBuilder::new(config).build(&input),
-            Err(BuildError::InvalidConfig(_))
-        ));
-    }
+    assert_rejected(
+        &sized_soup(10, 1, 5.0),
+        [
+            ClusterBinnedConfig {
+                bins: 1,
+                ..ClusterBinnedConfig::DEFAULT
+            },
+            ClusterBinnedConfig {
+                cluster_size: 0,
+                ..ClusterBinnedConfig::DEFAULT
+            },
+            ClusterBinnedConfig {
+                max_leaf_size: 0,
+                always_leaf: 0,
+                ..ClusterBinnedConfig::DEFAULT
+            },
+            ClusterBinnedConfig {
+                always_leaf: 9,
+                ..ClusterBinnedConfig::DEFAULT
+            },
+        ],
+        ClusterBinnedBuilder::new,
+    );
 }

@@ -1,30 +1,17 @@
 //! The PLOC builder: valid, deterministic across thread counts, leaves bounded by the
 //! configuration, hard cases, typed errors.
 
+mod common;
 mod tsah_support;
 
+use common::{assert_empty_input_builds_empty_tree, assert_rejected};
 use sahara_builders::ploc::{PlocBuilder, PlocConfig};
-use sahara_builders::{registry, BuildError, BuildInput, Builder, Bvh};
+use sahara_builders::{registry, BuildError, BuildInput, Builder};
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
+use sahara_fixtures::soups::box_soup;
 use sahara_geom::{Aabb, Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
-
-fn inputs() -> Vec<(String, Vec<Triangle>)> {
-    let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup-3000".into(), box_soup(3000, 1)),
-        ("soup-20000".into(), box_soup(20_000, 2)),
-        ("clustered-3000".into(), clustered_boxes(3000, 3)),
-        ("mesh-40".into(), mesh_like(40, 4)),
-    ];
-    v.extend(
-        named_degenerates()
-            .into_iter()
-            .map(|(n, t)| (n.to_string(), t)),
-    );
-    v
-}
 
 #[test]
 fn valid_deterministic_and_bounded_leaves() {
@@ -33,7 +20,7 @@ fn valid_deterministic_and_bounded_leaves() {
             radius,
             max_leaf_size: max_leaf,
         });
-        for (name, tris) in inputs() {
+        for (name, tris) in soups_mesh_and_degenerates() {
             check_builder(&b, &tris, max_leaf, &name);
         }
     }
@@ -68,26 +55,22 @@ fn identical_triangles_give_a_balanced_tree() {
 #[test]
 fn typed_errors_and_edge_sizes() {
     let tris = box_soup(10, 1);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    for bad in [
-        PlocConfig {
-            radius: 0,
-            max_leaf_size: 8,
-        },
-        PlocConfig {
-            radius: 16,
-            max_leaf_size: 0,
-        },
-    ] {
-        assert!(matches!(
-            PlocBuilder::new(bad).build(&input),
-            Err(BuildError::InvalidConfig(_))
-        ));
-    }
+    assert_rejected(
+        &tris,
+        [
+            PlocConfig {
+                radius: 0,
+                max_leaf_size: 8,
+            },
+            PlocConfig {
+                radius: 16,
+                max_leaf_size: 0,
+            },
+        ],
+        PlocBuilder::new,
+    );
     let b = PlocBuilder::default();
-    let empty: [Triangle; 0] = [];
-    let input = BuildInput::new(&empty, CostModel::default()).unwrap();
-    assert_eq!(b.build(&input).unwrap(), Bvh::empty());
+    assert_empty_input_builds_empty_tree(&b);
     for n in [1, 2, 3] {
         check_builder(&b, &tris[..n], 8, "tiny");
     }

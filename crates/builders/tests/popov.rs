@@ -1,29 +1,25 @@
 //! The look-ahead SAH builders (after Popov et al.) and the hybrid with temporary subtrees.
 
+mod common;
 mod tsah_support;
 
+use common::assert_rejected;
 use sahara_builders::popov::{Frontier, PopovBuilder, PopovConfig};
 use sahara_builders::sweep::{SweepBuilder, SweepConfig};
 use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_builders::{registry, BuildInput, Builder};
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
+use sahara_fixtures::soups::{box_soup, clustered_boxes};
 use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
 
 fn inputs() -> Vec<(String, Vec<Triangle>)> {
-    let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup".into(), box_soup(2000, 1)),
-        ("clustered".into(), clustered_boxes(2000, 2)),
-        ("mesh".into(), mesh_like(25, 3)),
-    ];
-    v.extend(
-        named_degenerates()
-            .into_iter()
-            .map(|(n, t)| (n.to_string(), t)),
-    );
-    v
+    with_degenerates(vec![
+        ("soup", box_soup(2000, 1)),
+        ("clustered", clustered_boxes(2000, 2)),
+        ("mesh", mesh_like(25, 3)),
+    ])
 }
 
 #[test]
@@ -112,22 +108,22 @@ fn hybrid_everywhere_sah_never_above_sweep() {
 
 #[test]
 fn rejects_bad_configs() {
-    let tris = box_soup(10, 1);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    for c in [
-        PopovConfig {
-            depth: 0,
-            ..PopovConfig::D2
-        },
-        PopovConfig {
-            k: 0,
-            ..PopovConfig::D2
-        },
-        PopovConfig {
-            max_leaf_size: 0,
-            ..PopovConfig::D2
-        },
-    ] {
-        assert!(PopovBuilder::new(c).build(&input).is_err());
-    }
+    assert_rejected(
+        &box_soup(10, 1),
+        [
+            PopovConfig {
+                depth: 0,
+                ..PopovConfig::D2
+            },
+            PopovConfig {
+                k: 0,
+                ..PopovConfig::D2
+            },
+            PopovConfig {
+                max_leaf_size: 0,
+                ..PopovConfig::D2
+            },
+        ],
+        PopovBuilder::new,
+    );
 }

@@ -11,7 +11,7 @@ use sahara_builders::reinsert::{
 use sahara_builders::{registry, BuildError, BuildInput, Bvh};
 use sahara_bvh::Node;
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
+use sahara_fixtures::soups::{box_soup, clustered_boxes};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 use sahara_scene::Procedural;
@@ -25,17 +25,11 @@ const PRESETS: [&str; 4] = [
 ];
 
 fn inputs() -> Vec<(String, Vec<Triangle>)> {
-    let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup-3000".into(), box_soup(3000, 1)),
-        ("clustered-3000".into(), clustered_boxes(3000, 3)),
-        ("mesh-30".into(), mesh_like(30, 4)),
-    ];
-    v.extend(
-        named_degenerates()
-            .into_iter()
-            .map(|(n, t)| (n.to_string(), t)),
-    );
-    v
+    with_degenerates(vec![
+        ("soup-3000", box_soup(3000, 1)),
+        ("clustered-3000", clustered_boxes(3000, 3)),
+        ("mesh-30", mesh_like(30, 4)),
+    ])
 }
 
 /// The sorted multiset of leaves (each leaf's sorted references).

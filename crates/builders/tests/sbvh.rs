@@ -2,23 +2,20 @@
 
 use sahara_builders::binned::{BinnedBuilder, BinnedConfig};
 use sahara_builders::sbvh::{sbvh_cost_only, ObjectSplitMethod, SbvhBuilder, SbvhConfig};
-use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::{BuildInput, Builder, Bvh};
 use sahara_fixtures::soups::{clustered_centroid, flat_scene, rand_point, sized_soup};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
+mod common;
 mod spatial_support;
+use common::*;
 use spatial_support::*;
 
 fn build_with(tris: &[Triangle], config: SbvhConfig, cost: CostModel) -> Bvh {
-    let input = BuildInput::new(tris, cost).unwrap();
-    let bvh = SbvhBuilder::new(config).build(&input).unwrap();
-    bvh.validate(tris).unwrap();
-    if !tris.is_empty() {
-        assert!(bvh.spatial_splits);
-    }
-    assert!(max_leaf(&bvh) <= config.max_leaf_size);
+    let builder = SbvhBuilder::new(config);
+    let bvh = build_valid(&builder, tris, cost, config.max_leaf_size, Some(true));
     let budget = config.budget_for(tris.len());
     assert!(bvh.prim_indices.len() <= tris.len() + budget);
     bvh
@@ -58,11 +55,7 @@ fn configs() -> Vec<SbvhConfig> {
 
 #[test]
 fn random_soups_validate() {
-    for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (3000, 5)] {
-        for config in configs() {
-            build(&sized_soup(n, seed, 8.0), config);
-        }
-    }
+    build_random_soups(3000, &configs(), build);
 }
 
 #[test]
@@ -128,23 +121,9 @@ fn clustered_centroids_respect_max_leaf() {
 #[test]
 fn degenerate_inputs() {
     for config in configs() {
-        build(&degenerate_mix(300, 200, 50), config);
-        let p = Vec3A::new(1.0, -2.0, 3.0);
-        let bvh = build(&vec![Triangle::new(p, p, p); 500], config);
-        assert!(bvh.stats().depth <= 12);
-        build(&[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)], config);
-        build(&[], config);
-        // Collinear zero-area triangles along a diagonal.
-        let line: Vec<Triangle> = (0..300)
-            .map(|i| {
-                let o = Vec3A::splat(i as f32 * 0.3);
-                Triangle::new(o, o + Vec3A::splat(40.0), o + Vec3A::splat(20.0))
-            })
-            .collect();
-        build(&line, config);
+        build_degenerate_inputs(|tris| build(tris, config));
     }
-    let input = BuildInput::new(&[], CostModel::default()).unwrap();
-    assert_eq!(SbvhBuilder::default().build(&input).unwrap(), Bvh::empty());
+    assert_empty_input_builds_empty_tree(&SbvhBuilder::default());
 }
 
 #[test]
@@ -214,40 +193,40 @@ fn overlap_gate_searches_spatial_splits_at_fewer_nodes() {
 
 #[test]
 fn invalid_config_is_rejected() {
-    let tris = sized_soup(10, 1, 1.0);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    for config in [
-        SbvhConfig {
-            max_leaf_size: 0,
-            ..SbvhConfig::DEFAULT
-        },
-        SbvhConfig {
-            alpha: f32::NAN,
-            ..SbvhConfig::DEFAULT
-        },
-        SbvhConfig {
-            duplication_budget: -1.0,
-            ..SbvhConfig::DEFAULT
-        },
-        SbvhConfig {
-            overlap_ratio: f32::NAN,
-            ..SbvhConfig::DEFAULT
-        },
-        SbvhConfig {
-            overlap_ratio: -0.5,
-            ..SbvhConfig::DEFAULT
-        },
-        SbvhConfig {
-            overlap_ratio: f32::INFINITY,
-            ..SbvhConfig::DEFAULT
-        },
-        SbvhConfig {
-            object_split: ObjectSplitMethod::Binned { bins: 1 },
-            ..SbvhConfig::DEFAULT
-        },
-    ] {
-        assert!(SbvhBuilder::new(config).build(&input).is_err());
-    }
+    assert_rejected(
+        &sized_soup(10, 1, 1.0),
+        [
+            SbvhConfig {
+                max_leaf_size: 0,
+                ..SbvhConfig::DEFAULT
+            },
+            SbvhConfig {
+                alpha: f32::NAN,
+                ..SbvhConfig::DEFAULT
+            },
+            SbvhConfig {
+                duplication_budget: -1.0,
+                ..SbvhConfig::DEFAULT
+            },
+            SbvhConfig {
+                overlap_ratio: f32::NAN,
+                ..SbvhConfig::DEFAULT
+            },
+            SbvhConfig {
+                overlap_ratio: -0.5,
+                ..SbvhConfig::DEFAULT
+            },
+            SbvhConfig {
+                overlap_ratio: f32::INFINITY,
+                ..SbvhConfig::DEFAULT
+            },
+            SbvhConfig {
+                object_split: ObjectSplitMethod::Binned { bins: 1 },
+                ..SbvhConfig::DEFAULT
+            },
+        ],
+        SbvhBuilder::new,
+    );
 }
 
 #[test]
@@ -269,28 +248,12 @@ fn cost_only_equals_sah_of_tree() {
 
 #[test]
 fn deterministic_across_thread_counts() {
-    let mut tris = sized_soup(30_000, 81, 6.0);
-    tris.extend(needs_spatial());
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    assert_same_tree_whatever_the_threads(|| {
-        let bvh = SbvhBuilder::default().build(&input).unwrap();
-        bvh.validate(&tris).unwrap();
-        bvh
-    });
+    assert_deterministic_on_a_large_spatial_input(&SbvhBuilder::default());
 }
 
 #[test]
 fn registry_entry() {
-    let b = registry::by_name("sbvh").unwrap();
-    assert_eq!(b.name(), "sbvh");
-    let e = registry::entries()
-        .into_iter()
-        .find(|e| e.name == "sbvh")
-        .unwrap();
-    assert!(e.spatial);
-    let tris = needs_spatial();
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    b.build(&input).unwrap().validate(&tris).unwrap();
+    registered_spatial_tree("sbvh");
 }
 
 /// Triangles that are flat (or one unit in the last place thick) along an axis, far from the

@@ -2,23 +2,20 @@
 
 use sahara_builders::binned::{BinnedBuilder, BinnedConfig};
 use sahara_builders::spatial_binned::{SpatialBinnedBuilder, SpatialBinnedConfig};
-use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::{BuildInput, Builder, Bvh};
 use sahara_fixtures::soups::{clustered_centroid, flat_scene, sized_soup};
-use sahara_geom::{Triangle, Vec3A};
+use sahara_geom::Triangle;
 use sahara_metrics::{sah, CostModel};
 
+mod common;
 mod spatial_support;
+use common::*;
 use spatial_support::*;
 
 /// Builds, validates, and checks the leaf size and the replication budget.
 fn build_with(tris: &[Triangle], config: SpatialBinnedConfig, cost: CostModel) -> Bvh {
-    let input = BuildInput::new(tris, cost).unwrap();
-    let bvh = SpatialBinnedBuilder::new(config).build(&input).unwrap();
-    bvh.validate(tris).unwrap();
-    if !tris.is_empty() {
-        assert!(bvh.spatial_splits);
-    }
-    assert!(max_leaf(&bvh) <= config.max_leaf_size);
+    let builder = SpatialBinnedBuilder::new(config);
+    let bvh = build_valid(&builder, tris, cost, config.max_leaf_size, Some(true));
     assert!(bvh.prim_indices.len() <= config.slots_for(tris.len()));
     bvh
 }
@@ -60,11 +57,7 @@ fn configs() -> Vec<SpatialBinnedConfig> {
 
 #[test]
 fn random_soups_validate() {
-    for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (3000, 5)] {
-        for config in configs() {
-            build(&sized_soup(n, seed, 8.0), config);
-        }
-    }
+    build_random_soups(3000, &configs(), build);
 }
 
 #[test]
@@ -144,26 +137,10 @@ fn clustered_centroids_respect_max_leaf() {
 #[test]
 fn degenerate_inputs() {
     for config in configs() {
-        build(&degenerate_mix(300, 200, 50), config);
-        let p = Vec3A::new(1.0, -2.0, 3.0);
-        let bvh = build(&vec![Triangle::new(p, p, p); 500], config);
-        assert!(bvh.stats().depth <= 12);
-        build(&[Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)], config);
-        build(&[], config);
-        let line: Vec<Triangle> = (0..300)
-            .map(|i| {
-                let o = Vec3A::splat(i as f32 * 0.3);
-                Triangle::new(o, o + Vec3A::splat(40.0), o + Vec3A::splat(20.0))
-            })
-            .collect();
-        build(&line, config);
+        build_degenerate_inputs(|tris| build(tris, config));
         build(&flat_scene(2000, 9.0), config);
     }
-    let input = BuildInput::new(&[], CostModel::default()).unwrap();
-    assert_eq!(
-        SpatialBinnedBuilder::default().build(&input).unwrap(),
-        Bvh::empty()
-    );
+    assert_empty_input_builds_empty_tree(&SpatialBinnedBuilder::default());
 }
 
 #[test]
@@ -179,59 +156,42 @@ fn huge_and_tiny_triangles_mixed() {
 #[test]
 fn invalid_config_is_rejected() {
     let d = SpatialBinnedConfig::DEFAULT;
-    let tris = needs_spatial();
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    for bad in [
-        SpatialBinnedConfig {
-            object_bins: 1,
-            ..d
-        },
-        SpatialBinnedConfig {
-            max_leaf_size: 0,
-            ..d
-        },
-        SpatialBinnedConfig {
-            budget: f32::NAN,
-            ..d
-        },
-        SpatialBinnedConfig { budget: -1.0, ..d },
-        SpatialBinnedConfig {
-            alpha: f32::INFINITY,
-            ..d
-        },
-        SpatialBinnedConfig {
-            overlap_ratio: -0.5,
-            ..d
-        },
-    ] {
-        assert!(SpatialBinnedBuilder::new(bad).build(&input).is_err());
-    }
+    assert_rejected(
+        &needs_spatial(),
+        [
+            SpatialBinnedConfig {
+                object_bins: 1,
+                ..d
+            },
+            SpatialBinnedConfig {
+                max_leaf_size: 0,
+                ..d
+            },
+            SpatialBinnedConfig {
+                budget: f32::NAN,
+                ..d
+            },
+            SpatialBinnedConfig { budget: -1.0, ..d },
+            SpatialBinnedConfig {
+                alpha: f32::INFINITY,
+                ..d
+            },
+            SpatialBinnedConfig {
+                overlap_ratio: -0.5,
+                ..d
+            },
+        ],
+        SpatialBinnedBuilder::new,
+    );
 }
 
 #[test]
 fn deterministic_across_thread_counts() {
-    let mut tris = sized_soup(30_000, 81, 6.0);
-    tris.extend(needs_spatial());
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    assert_same_tree_whatever_the_threads(|| {
-        let bvh = SpatialBinnedBuilder::default().build(&input).unwrap();
-        bvh.validate(&tris).unwrap();
-        bvh
-    });
+    assert_deterministic_on_a_large_spatial_input(&SpatialBinnedBuilder::default());
 }
 
 #[test]
 fn registry_entry() {
-    let b = registry::by_name("spatial-binned").unwrap();
-    assert_eq!(b.name(), "spatial-binned");
-    let e = registry::entries()
-        .into_iter()
-        .find(|e| e.name == "spatial-binned")
-        .unwrap();
-    assert!(e.spatial);
-    let tris = needs_spatial();
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    let bvh = b.build(&input).unwrap();
-    bvh.validate(&tris).unwrap();
+    let (tris, bvh) = registered_spatial_tree("spatial-binned");
     assert!(bvh.prim_indices.len() > tris.len());
 }

@@ -1,7 +1,9 @@
 //! The full-sweep SAH builder and its cost-only build.
 
+mod common;
 mod tsah_support;
 
+use common::assert_rejected;
 use sahara_builders::rules::greedy::{sweep_cost, SweepScratch};
 use sahara_builders::split::orders::{sorted_orders, split_orders, Marks};
 use sahara_builders::sweep::{SweepBuilder, SweepConfig};
@@ -12,26 +14,11 @@ use sahara_geom::{Aabb, Triangle};
 use sahara_metrics::{sah, CostModel};
 use tsah_support::*;
 
-fn inputs() -> Vec<(String, Vec<Triangle>)> {
-    let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup-3000".into(), box_soup(3000, 1)),
-        ("soup-20000".into(), box_soup(20_000, 2)),
-        ("clustered-3000".into(), clustered_boxes(3000, 3)),
-        ("mesh-40".into(), mesh_like(40, 4)),
-    ];
-    v.extend(
-        named_degenerates()
-            .into_iter()
-            .map(|(n, t)| (n.to_string(), t)),
-    );
-    v
-}
-
 #[test]
 fn valid_deterministic_and_bounded_leaves() {
     for max_leaf in [1, 4, 8] {
         let b = SweepBuilder::new(SweepConfig::DEFAULT.with_max_leaf_size(max_leaf));
-        for (name, tris) in inputs() {
+        for (name, tris) in soups_mesh_and_degenerates() {
             check_builder(&b, &tris, max_leaf, &name);
         }
     }
@@ -55,12 +42,10 @@ fn registered() {
 
 #[test]
 fn rejects_zero_leaf_size() {
-    let tris = box_soup(10, 1);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
-    assert!(
-        SweepBuilder::new(SweepConfig::DEFAULT.with_max_leaf_size(0))
-            .build(&input)
-            .is_err()
+    assert_rejected(
+        &box_soup(10, 1),
+        [SweepConfig::DEFAULT.with_max_leaf_size(0)],
+        SweepBuilder::new,
     );
 }
 
@@ -95,7 +80,7 @@ fn cost_only_equals_sah_of_built_tree() {
         },
     ] {
         for max_leaf in [1, 4, 8] {
-            for (name, tris) in inputs() {
+            for (name, tris) in soups_mesh_and_degenerates() {
                 if tris.is_empty() {
                     continue;
                 }

@@ -1,7 +1,9 @@
 //! The temporary-subtree SAH builders (Wodniok & Goesele).
 
+mod common;
 mod tsah_support;
 
+use common::assert_rejected;
 use sahara_builders::sweep::{SweepBuilder, SweepConfig};
 use sahara_builders::tsah::{Candidates, Temporary, TsahBuilder, TsahConfig};
 use sahara_builders::{registry, BuildInput, Builder};
@@ -21,17 +23,11 @@ fn presets() -> Vec<(&'static str, TsahConfig)> {
 
 fn inputs(small: bool) -> Vec<(String, Vec<Triangle>)> {
     let (a, b) = if small { (150, 9) } else { (3000, 30) };
-    let mut v: Vec<(String, Vec<Triangle>)> = vec![
-        ("soup".into(), box_soup(a, 1)),
-        ("clustered".into(), clustered_boxes(a, 2)),
-        ("mesh".into(), mesh_like(b, 3)),
-    ];
-    v.extend(
-        named_degenerates()
-            .into_iter()
-            .map(|(n, t)| (n.to_string(), t)),
-    );
-    v
+    with_degenerates(vec![
+        ("soup", box_soup(a, 1)),
+        ("clustered", clustered_boxes(a, 2)),
+        ("mesh", mesh_like(b, 3)),
+    ])
 }
 
 #[test]
@@ -100,8 +96,6 @@ fn registered_presets() {
 
 #[test]
 fn rejects_bad_configs() {
-    let tris = box_soup(10, 1);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let bad = [
         TsahConfig {
             max_leaf_size: 0,
@@ -123,9 +117,7 @@ fn rejects_bad_configs() {
             ..TsahConfig::TOP_K
         },
     ];
-    for c in bad {
-        assert!(TsahBuilder::new(c).build(&input).is_err(), "{c:?}");
-    }
+    assert_rejected(&box_soup(10, 1), bad, TsahBuilder::new);
 }
 
 /// With the greedy-best split always rated and sweep temporaries, the tree's SAH is never
@@ -262,7 +254,13 @@ impl Ref<'_> {
             return cost.leaf_cost(n);
         }
         let (l, r) = s.split_at(i);
-        cost.inner_cost(
+        self.cost_over_sweep_trees(pa, l, r)
+    }
+
+    /// The cost of an inner node of half area `pa` whose children are the greedy sweep trees
+    /// over `l` and `r`.
+    fn cost_over_sweep_trees(&self, pa: f64, l: &[u32], r: &[u32]) -> f64 {
+        self.input.cost.inner_cost(
             pa,
             self.union(l).half_area() as f64,
             self.sweep_cost(l),
@@ -281,15 +279,7 @@ impl Ref<'_> {
             return;
         }
         let pa = self.union(ids).half_area() as f64;
-        let (c, s, i) = self.best(ids, |l, r| {
-            cost.inner_cost(
-                pa,
-                self.union(l).half_area() as f64,
-                self.sweep_cost(l),
-                self.union(r).half_area() as f64,
-                self.sweep_cost(r),
-            )
-        });
+        let (c, s, i) = self.best(ids, |l, r| self.cost_over_sweep_trees(pa, l, r));
         if n <= self.max_leaf && cost.leaf_cost(n) <= c {
             out.push(ids.to_vec());
             return;

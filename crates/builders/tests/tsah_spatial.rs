@@ -2,12 +2,14 @@
 
 use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
 use sahara_builders::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
-use sahara_builders::{registry, BuildInput, Builder, Bvh};
+use sahara_builders::{BuildInput, Builder, Bvh};
 use sahara_fixtures::soups::{clustered_centroid, flat_scene, sized_soup};
 use sahara_geom::{Triangle, Vec3A};
 use sahara_metrics::{sah, CostModel};
 
+mod common;
 mod spatial_support;
+use common::*;
 use spatial_support::*;
 
 /// A smaller grid than the other spatial tests': 25 × 25 crossed by 50 diagonals one way.
@@ -77,28 +79,16 @@ fn configs() -> Vec<TsahSpatialConfig> {
 }
 
 fn build_with(tris: &[Triangle], config: TsahSpatialConfig) -> Bvh {
-    let input = BuildInput::new(tris, CostModel::default()).unwrap();
-    let bvh = TsahSpatialBuilder::new(config).build(&input).unwrap();
-    bvh.validate(tris).unwrap();
-    let max_leaf = bvh
-        .nodes
-        .iter()
-        .filter(|n| n.is_leaf())
-        .map(|n| n.count as usize)
-        .max()
-        .unwrap_or(0);
-    assert!(max_leaf <= config.sbvh.max_leaf_size);
+    let builder = TsahSpatialBuilder::new(config);
+    let max_leaf_size = config.sbvh.max_leaf_size;
+    let bvh = build_valid(&builder, tris, CostModel::default(), max_leaf_size, None);
     assert!(bvh.prim_indices.len() <= tris.len() + config.sbvh.budget_for(tris.len()));
     bvh
 }
 
 #[test]
 fn random_soups_validate() {
-    for (n, seed) in [(1, 1), (2, 2), (9, 3), (100, 4), (1500, 5)] {
-        for config in configs() {
-            build_with(&sized_soup(n, seed, 8.0), config);
-        }
-    }
+    build_random_soups(1500, &configs(), build_with);
 }
 
 #[test]
@@ -207,8 +197,6 @@ fn deterministic_across_thread_counts() {
 
 #[test]
 fn invalid_config_is_rejected() {
-    let tris = sized_soup(10, 1, 1.0);
-    let input = BuildInput::new(&tris, CostModel::default()).unwrap();
     let bad = [
         TsahSpatialConfig {
             object_candidates: 0,
@@ -239,17 +227,12 @@ fn invalid_config_is_rejected() {
             ..TsahSpatialConfig::DEFAULT
         },
     ];
-    for config in bad {
-        assert!(TsahSpatialBuilder::new(config).build(&input).is_err());
-    }
+    assert_rejected(&sized_soup(10, 1, 1.0), bad, TsahSpatialBuilder::new);
 }
 
 #[test]
 fn registry_entry() {
-    let e = registry::entries()
-        .into_iter()
-        .find(|e| e.name == "tsah-sbvh")
-        .unwrap();
+    let e = entry("tsah-sbvh");
     assert!(e.spatial);
     assert!(!e.small_inputs_only);
     assert_eq!(e.max_practical_triangles, None);
@@ -262,10 +245,7 @@ fn registry_entry() {
 
 #[test]
 fn registry_entry_exact() {
-    let e = registry::entries()
-        .into_iter()
-        .find(|e| e.name == "tsah-sbvh-exact")
-        .unwrap();
+    let e = entry("tsah-sbvh-exact");
     assert!(e.spatial);
     assert!(!e.small_inputs_only);
     assert_eq!(e.max_practical_triangles, Some(150_000));

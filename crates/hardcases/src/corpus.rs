@@ -431,6 +431,18 @@ fn obj_specials(v: &mut Vec<Input>) {
 
 /// Hostile glTF/GLB inputs: size fields claiming gigabytes, counts past the data, offsets
 /// overflowing, strides, node cycles and shared nodes, external and malformed URIs.
+/// The glTF `nodes` array of `levels` nodes, each listing the next one `fan_out` times as its
+/// children, then the mesh's node.
+fn node_levels(levels: usize, fan_out: usize) -> String {
+    let mut nodes = String::from("[");
+    for i in 0..levels {
+        let next = vec![(i + 1).to_string(); fan_out].join(",");
+        nodes.push_str(&format!(r#"{{"children":[{next}]}},"#));
+    }
+    nodes.push_str(r#"{"mesh":0}]"#);
+    nodes
+}
+
 fn gltf_specials(v: &mut Vec<Input>) {
     let t = Target::Gltf;
     let bin = gltf_bin();
@@ -626,32 +638,20 @@ fn gltf_specials(v: &mut Vec<Input>) {
             },
         ));
     }
-    // A node DAG: each level lists the next twice, 2^20 paths to the mesh from 21 nodes.
-    let mut dag = String::from("[");
-    for i in 0..20 {
-        dag.push_str(&format!(r#"{{"children":[{0},{0}]}},"#, i + 1));
+    for (name, nodes) in [
+        // A node DAG: each level lists the next twice, 2^20 paths to the mesh from 21 nodes.
+        ("node DAG 2^20 paths", node_levels(20, 2)),
+        // A chain of 5000 nodes (deep hierarchy).
+        ("node chain 5000", node_levels(5000, 1)),
+    ] {
+        variants.push((
+            name.into(),
+            GltfParams {
+                nodes,
+                ..Default::default()
+            },
+        ));
     }
-    dag.push_str(r#"{"mesh":0}]"#);
-    variants.push((
-        "node DAG 2^20 paths".into(),
-        GltfParams {
-            nodes: dag,
-            ..Default::default()
-        },
-    ));
-    // A chain of 5000 nodes (deep hierarchy).
-    let mut chain = String::from("[");
-    for i in 0..5000 {
-        chain.push_str(&format!(r#"{{"children":[{}]}},"#, i + 1));
-    }
-    chain.push_str(r#"{"mesh":0}]"#);
-    variants.push((
-        "node chain 5000".into(),
-        GltfParams {
-            nodes: chain,
-            ..Default::default()
-        },
-    ));
     variants.push((
         "required extension".into(),
         GltfParams { extra: r#","extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"]"#.into(), ..Default::default() },

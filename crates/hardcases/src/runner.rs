@@ -176,6 +176,11 @@ pub fn run_case_with(
             stage: Arc::new(Mutex::new("starting".to_string())),
         };
         let stage = Arc::clone(&job.stage);
+        let stage_now = || stage.lock().map(|s| s.clone()).unwrap_or_default();
+        // The builder's thread failed: one outcome, charged to the builder.
+        let failure = |detail: String, seconds: f64| {
+            outcome(case, &name, Some(&name), None, false, detail, seconds)
+        };
         let (tx, rx) = mpsc::channel();
         let start = Instant::now();
         let spawned = std::thread::Builder::new()
@@ -185,44 +190,24 @@ pub fn run_case_with(
                 let _ = tx.send(r);
             });
         if let Err(e) = spawned {
-            out.push(outcome(
-                case,
-                &name,
-                Some(&name),
-                None,
-                false,
-                format!("could not spawn a thread: {e}"),
-                0.0,
-            ));
+            out.push(failure(format!("could not spawn a thread: {e}"), 0.0));
             continue;
         }
         let result = rx.recv_timeout(opts.timeout);
         let results = match result {
             Ok(r) => r,
-            Err(mpsc::RecvTimeoutError::Timeout) => {
-                let st = stage.lock().map(|s| s.clone()).unwrap_or_default();
-                vec![outcome(
-                    case,
-                    &name,
-                    Some(&name),
-                    None,
-                    false,
-                    format!("timeout after {} s ({st})", opts.timeout.as_secs()),
-                    opts.timeout.as_secs_f64(),
-                )]
-            }
-            Err(mpsc::RecvTimeoutError::Disconnected) => {
-                let st = stage.lock().map(|s| s.clone()).unwrap_or_default();
-                vec![outcome(
-                    case,
-                    &name,
-                    Some(&name),
-                    None,
-                    false,
-                    format!("builder thread died ({st})"),
-                    start.elapsed().as_secs_f64(),
-                )]
-            }
+            Err(mpsc::RecvTimeoutError::Timeout) => vec![failure(
+                format!(
+                    "timeout after {} s ({})",
+                    opts.timeout.as_secs(),
+                    stage_now()
+                ),
+                opts.timeout.as_secs_f64(),
+            )],
+            Err(mpsc::RecvTimeoutError::Disconnected) => vec![failure(
+                format!("builder thread died ({})", stage_now()),
+                start.elapsed().as_secs_f64(),
+            )],
         };
         if opts.verbose {
             let failed = results.iter().filter(|o| !o.passed).count();

@@ -29,6 +29,27 @@ mod num;
 use num::{ratio_to_f64, Q};
 use std::cmp::Ordering;
 
+/// SplitMix64 (Steele et al. 2014), a small deterministic generator seeded by its state:
+/// the oracle's randomised tests draw from it, and so does the xtask's bootstrap.
+#[derive(Clone, Debug)]
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `0..n` (`n` > 0; the modulo bias is below 2^-40 for counts below 2^24).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+}
+
 /// Tolerance, in f32 ulps, under which two `t` values (or a `t` and a range end)
 /// count as not orderable by f32 arithmetic.
 pub const ULPS: f64 = 4.0;

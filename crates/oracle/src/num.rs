@@ -206,16 +206,7 @@ impl Q {
 mod tests {
     use super::*;
 
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^ (z >> 31)
-        }
-    }
+    use crate::SplitMix64 as Rng;
 
     #[test]
     fn small_ratios_match_ieee_division() {
@@ -223,12 +214,12 @@ mod tests {
         // correctly rounded reference.
         let mut r = Rng(1);
         for _ in 0..200_000 {
-            let bn = 1 + r.next() % 53;
-            let bd = 1 + r.next() % 53;
-            let n = (r.next() >> (64 - bn)).max(1) as i128;
-            let d = (r.next() >> (64 - bd)).max(1) as i128;
-            let n = if r.next() & 1 == 0 { n } else { -n };
-            let exp = (r.next() % 200) as i64 - 100;
+            let bn = 1 + r.next_u64() % 53;
+            let bd = 1 + r.next_u64() % 53;
+            let n = (r.next_u64() >> (64 - bn)).max(1) as i128;
+            let d = (r.next_u64() >> (64 - bd)).max(1) as i128;
+            let n = if r.next_u64() & 1 == 0 { n } else { -n };
+            let exp = (r.next_u64() % 200) as i64 - 100;
             let want = (n as f64 / d as f64) * 2f64.powi(exp as i32);
             let got = ratio_to_f64(&Int::S(n), &Int::S(d), exp);
             assert_eq!(got.to_bits(), want.to_bits(), "{n}/{d}*2^{exp}");
@@ -241,12 +232,12 @@ mod tests {
     fn u128_and_big_paths_agree() {
         let mut r = Rng(2);
         for _ in 0..100_000 {
-            let bn = 1 + r.next() % 127;
-            let bd = 1 + r.next() % 127;
-            let n = ((r.next() as u128) << 64 | r.next() as u128) >> (128 - bn);
-            let d = ((r.next() as u128) << 64 | r.next() as u128) >> (128 - bd);
+            let bn = 1 + r.next_u64() % 127;
+            let bd = 1 + r.next_u64() % 127;
+            let n = ((r.next_u64() as u128) << 64 | r.next_u64() as u128) >> (128 - bn);
+            let d = ((r.next_u64() as u128) << 64 | r.next_u64() as u128) >> (128 - bd);
             let (n, d) = (n.max(1), d.max(1));
-            let exp = (r.next() % 2400) as i64 - 1200;
+            let exp = (r.next_u64() % 2400) as i64 - 1200;
             let a = ratio_to_f64(&Int::S(n as i128), &Int::S(d as i128), exp);
             let b = ratio_to_f64(&Int::B(BigInt::from(n)), &Int::B(BigInt::from(d)), exp);
             assert_eq!(a.to_bits(), b.to_bits(), "{n}/{d}*2^{exp}");

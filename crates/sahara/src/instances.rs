@@ -2,7 +2,6 @@
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
 use sahara_builders::BuildInput;
 use sahara_traverse::instance::{BottomLevel, Instance, InstanceSet};
 use sahara_traverse::{brute, NoStats};
@@ -383,18 +382,12 @@ impl Instances {
 
     /// [`Instances::closest_hit`] of every ray, in parallel, in the order of `rays`.
     pub fn closest_hits(&self, rays: &[Ray], mask: u32) -> Vec<Option<InstanceHit>> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.closest_hit(r, mask))
-            .collect()
+        crate::batch(rays, |r| self.closest_hit(r, mask))
     }
 
     /// [`Instances::any_hit`] of every ray, in parallel, in the order of `rays`.
     pub fn any_hits(&self, rays: &[Ray], mask: u32) -> Vec<bool> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.any_hit(r, mask))
-            .collect()
+        crate::batch(rays, |r| self.any_hit(r, mask))
     }
 
     /// The brute-force twin of [`Instances::closest_hit`]: every instance in index order whose
@@ -559,10 +552,7 @@ impl Instances {
     where
         F: Fn(&InstanceHit) -> bool + Sync,
     {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.closest_hit_filtered(r, mask, &filter))
-            .collect()
+        crate::batch(rays, |r| self.closest_hit_filtered(r, mask, &filter))
     }
 
     /// [`Instances::any_hit_filtered`] of every ray, in parallel, in the order of `rays`.
@@ -579,10 +569,7 @@ impl Instances {
     where
         F: Fn(&InstanceHit) -> bool + Sync,
     {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.any_hit_filtered(r, mask, &filter))
-            .collect()
+        crate::batch(rays, |r| self.any_hit_filtered(r, mask, &filter))
     }
 
     /// The brute-force twin of [`Instances::closest_hit_filtered`] (and, with `filter` `None`,

@@ -90,6 +90,12 @@ pub use scene::{GeometryId, Intersection, Scene, SceneBuilder, SceneError, Scene
 /// work counters, metrics, scene files and procedural scenes).
 pub use {sahara_builders, sahara_bvh, sahara_geom, sahara_metrics, sahara_scene, sahara_traverse};
 
+/// `query` of every item, in parallel on the current rayon pool, in the order of `items`: the
+/// batch queries of every structure (at least 64 items to a task).
+fn batch<I: Sync, T: Send>(items: &[I], query: impl Fn(&I) -> T + Sync + Send) -> Vec<T> {
+    items.par_iter().with_min_len(64).map(query).collect()
+}
+
 /// A closest hit on an [`Accel`] ([`Accel::closest_hit`]): the triangle, where, and its
 /// geometric normal.
 ///
@@ -339,18 +345,12 @@ impl Accel {
     /// # Ok::<(), sahara::Error>(())
     /// ```
     pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<AccelHit>> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.closest_hit(r))
-            .collect()
+        batch(rays, |r| self.closest_hit(r))
     }
 
     /// [`Accel::any_hit`] of every ray, in parallel, in the order of `rays`.
     pub fn any_hits(&self, rays: &[Ray]) -> Vec<bool> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.any_hit(r))
-            .collect()
+        crate::batch(rays, |r| self.any_hit(r))
     }
 
     /// Moves the triangles to `triangles` (the same number, in the same order: triangle `i`'s

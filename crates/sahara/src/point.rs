@@ -1,8 +1,6 @@
 //! Closest-point queries on an [`Accel`]: the point of the triangles nearest to a query
 //! point (signed distance fields, collision, snapping), one at a time or in batches.
 
-use rayon::prelude::*;
-
 use crate::{Accel, Vec3A};
 
 /// The closest point of an [`Accel`]'s triangles to a query point
@@ -93,10 +91,6 @@ impl Accel {
     /// # Ok::<(), sahara::Error>(())
     /// ```
     pub fn closest_points(&self, points: &[Vec3A], max_distance: f32) -> Vec<Option<PointHit>> {
-        points
-            .par_iter()
-            .with_min_len(64)
-            .map(|&p| self.closest_point(p, max_distance))
-            .collect()
+        crate::batch(points, |&p| self.closest_point(p, max_distance))
     }
 }

@@ -9,7 +9,6 @@ use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
-use rayon::prelude::*;
 use sahara_builders::split::spatial::{Clipper, SplitPrimitive};
 use sahara_builders::split::BinMap;
 use sahara_builders::BuildInput;
@@ -1111,10 +1110,7 @@ impl Scene {
     /// # Ok::<(), sahara::Error>(())
     /// ```
     pub fn closest_hits(&self, rays: &[Ray], mask: u32) -> Vec<Option<SceneHit>> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.closest_hit(r, mask))
-            .collect()
+        crate::batch(rays, |r| self.closest_hit(r, mask))
     }
 
     /// [`Scene::closest_hit_filtered`] of every ray, in parallel, in the order of `rays`
@@ -1136,10 +1132,7 @@ impl Scene {
     where
         F: Fn(&SceneHit) -> bool + Sync,
     {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.closest_hit_filtered(r, mask, &filter))
-            .collect()
+        crate::batch(rays, |r| self.closest_hit_filtered(r, mask, &filter))
     }
 
     /// [`Scene::any_hit`] of every ray with one mask, in parallel, in the order of `rays`.
@@ -1152,10 +1145,7 @@ impl Scene {
     /// # Ok::<(), sahara::Error>(())
     /// ```
     pub fn any_hits(&self, rays: &[Ray], mask: u32) -> Vec<bool> {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.any_hit(r, mask))
-            .collect()
+        crate::batch(rays, |r| self.any_hit(r, mask))
     }
 
     /// [`Scene::any_hit_filtered`] of every ray, in parallel, in the order of `rays`.
@@ -1171,10 +1161,7 @@ impl Scene {
     where
         F: Fn(&SceneHit) -> bool + Sync,
     {
-        rays.par_iter()
-            .with_min_len(64)
-            .map(|r| self.any_hit_filtered(r, mask, &filter))
-            .collect()
+        crate::batch(rays, |r| self.any_hit_filtered(r, mask, &filter))
     }
 
     /// The brute-force reference of [`Scene::closest_hit_filtered`] (and, with `filter`

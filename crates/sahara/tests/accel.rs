@@ -5,9 +5,13 @@
 use sahara::{
     Accel, AccelHit, BuildOptions, CostModel, Error, LoadError, Quality, Ray, Triangle, Vec3A,
 };
-use sahara_fixtures::{rays::segments_in, soups::mixed_soup};
+use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::rng::Pcg32;
 use sahara_traverse::brute;
+
+mod common;
+
+use common::segments_and_rays_from_above;
 
 fn scene() -> Vec<Triangle> {
     let mut tris = mixed_soup(1500, 3);
@@ -17,17 +21,9 @@ fn scene() -> Vec<Triangle> {
     tris
 }
 
+/// Segments in the soup's cube and infinite rays from outside towards the soup.
 fn rays(n: usize) -> Vec<Ray> {
-    let mut rng = Pcg32::new(11, 5);
-    let bounds = sahara::Aabb::new(Vec3A::splat(-1.2), Vec3A::splat(1.2));
-    let mut rays = segments_in(&bounds, n, &mut rng);
-    // Infinite rays from outside towards the soup.
-    for _ in 0..n {
-        let o = Vec3A::new(rng.range_f32(-3.0, 3.0), rng.range_f32(-3.0, 3.0), 4.0);
-        let target = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
-        rays.push(Ray::new(o, target - o, 0.0, f32::INFINITY));
-    }
-    rays
+    segments_and_rays_from_above(n, 11, 1.2)
 }
 
 /// The brute-force twin of `Accel::closest_hit`, written out here: the kernel's brute-force
@@ -213,12 +209,20 @@ fn saved_structures_round_trip_through_a_file() {
     ));
 }
 
+/// The saved file of the structure over the scene's first 40 triangles.
+fn saved_small(quality: Quality) -> Vec<u8> {
+    let tris: Vec<Triangle> = scene().into_iter().take(40).collect();
+    let mut file = Vec::new();
+    Accel::build(&tris, quality)
+        .unwrap()
+        .save(&mut file)
+        .unwrap();
+    file
+}
+
 #[test]
 fn broken_files_are_typed_errors() {
-    let tris: Vec<Triangle> = scene().into_iter().take(40).collect();
-    let accel = Accel::build(&tris, Quality::High).unwrap();
-    let mut file = Vec::new();
-    accel.save(&mut file).unwrap();
+    let file = saved_small(Quality::High);
     let load = |bytes: &[u8]| Accel::load(&mut &bytes[..]);
 
     // Every truncation.
@@ -270,17 +274,9 @@ fn broken_files_are_typed_errors() {
 /// makes): each inconsistency is a typed error.
 #[test]
 fn consistent_checksums_over_bad_content_are_typed_errors() {
-    let tris: Vec<Triangle> = scene().into_iter().take(40).collect();
-    let accel = Accel::build(&tris, Quality::Medium).unwrap();
-    let mut file = Vec::new();
-    accel.save(&mut file).unwrap();
+    let file = saved_small(Quality::Medium);
     let reseal = |mut bytes: Vec<u8>| {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for &b in bytes[8..40].iter().chain(&bytes[48..]) {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
-        bytes[40..48].copy_from_slice(&h.to_le_bytes());
+        common::reseal(&mut bytes, 40);
         Accel::load(&mut bytes.as_slice())
     };
     let mut q = file.clone();

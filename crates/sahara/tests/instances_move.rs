@@ -9,10 +9,11 @@ use std::sync::Arc;
 use sahara::sahara_traverse::instance::InstanceError;
 use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::rays::segments_in;
 use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::rng::Pcg32;
 use sahara_geom::Aabb;
+
+mod common;
 
 /// A random placement: rotation, non-uniform scale (a mirror one time in five), translation
 /// in a 12-unit cube.
@@ -40,6 +41,11 @@ fn random_transform(rng: &mut Pcg32) -> Affine3A {
     Affine3A::from_scale_rotation_translation(scale, rotation, t)
 }
 
+/// `n` random placements ([`random_transform`]) of meshes 0 and 1 in turn.
+fn alternating_placements(n: usize, rng: &mut Pcg32) -> Vec<(usize, Affine3A)> {
+    (0..n).map(|i| (i % 2, random_transform(rng))).collect()
+}
+
 fn meshes() -> Vec<Arc<Accel>> {
     let small: Vec<Triangle> = mesh_like(10, 3)
         .iter()
@@ -62,12 +68,7 @@ fn world(scene: &Instances) -> Aabb {
 
 /// Segments and unbounded rays through `b`.
 fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 4);
-    let mut v = segments_in(b, n, &mut rng);
-    for r in v.iter_mut().skip(1).step_by(2) {
-        *r = Ray::new(r.origin, r.direction(), 0.0, f32::INFINITY);
-    }
-    v
+    common::segments_and_unbounded_rays(b, n, seed, 4)
 }
 
 /// Every query of `scene` under `mask` against the brute-force twins; returns the hit count.
@@ -102,9 +103,7 @@ fn check(scene: &Instances, rays: &[Ray], mask: u32, what: &str) -> usize {
 #[test]
 fn moved_and_masked_instances_equal_brute_force_bit_for_bit() {
     let mut rng = Pcg32::new(45, 3);
-    let placements: Vec<(usize, Affine3A)> = (0..16)
-        .map(|i| (i % 2, random_transform(&mut rng)))
-        .collect();
+    let placements = alternating_placements(16, &mut rng);
     for quality in [Quality::Fast, Quality::Medium] {
         let mut scene = Instances::build_shared(meshes(), &placements, quality).unwrap();
         let mut total = 0;
@@ -201,9 +200,7 @@ fn moving_an_instance_keeps_the_meshes() {
 #[test]
 fn bad_moves_and_masks_are_typed_errors_that_change_nothing() {
     let mut rng = Pcg32::new(11, 2);
-    let placements: Vec<(usize, Affine3A)> = (0..5)
-        .map(|i| (i % 2, random_transform(&mut rng)))
-        .collect();
+    let placements = alternating_placements(5, &mut rng);
     let mut scene = Instances::build_shared(meshes(), &placements, Quality::Medium).unwrap();
     scene.set_mask(2, 0b11).unwrap();
     let snapshot = |s: &Instances| {
@@ -273,9 +270,7 @@ fn bad_moves_and_masks_are_typed_errors_that_change_nothing() {
 #[test]
 fn the_normal_is_the_inverse_transpose_of_the_object_normal() {
     let mut rng = Pcg32::new(3, 8);
-    let placements: Vec<(usize, Affine3A)> = (0..8)
-        .map(|i| (i % 2, random_transform(&mut rng)))
-        .collect();
+    let placements = alternating_placements(8, &mut rng);
     let scene = Instances::build_shared(meshes(), &placements, Quality::Fast).unwrap();
     let rays = rays(&world(&scene), 2_000, 5);
     let mut checked = 0;
@@ -309,9 +304,7 @@ fn the_normal_is_the_inverse_transpose_of_the_object_normal() {
 #[test]
 fn save_and_load_keep_moves_and_masks() {
     let mut rng = Pcg32::new(9, 9);
-    let placements: Vec<(usize, Affine3A)> = (0..6)
-        .map(|i| (i % 2, random_transform(&mut rng)))
-        .collect();
+    let placements = alternating_placements(6, &mut rng);
     let mut scene = Instances::build_shared(meshes(), &placements, Quality::Fast).unwrap();
     scene.set_transform(2, random_transform(&mut rng)).unwrap();
     scene.set_mask(1, 0).unwrap();

@@ -5,10 +5,11 @@
 use sahara::sahara_traverse::brute;
 use sahara::{Accel, Affine3A, Error, Instances, Quality, Ray, Triangle, Vec3, Vec3A, ALL_MASK};
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::rays::segments_in;
 use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::rng::Pcg32;
 use sahara_geom::Aabb;
+
+mod common;
 
 fn bounds(points: impl IntoIterator<Item = Vec3A>) -> Aabb {
     points.into_iter().fold(Aabb::EMPTY, |b, p| b.grown(p))
@@ -16,12 +17,7 @@ fn bounds(points: impl IntoIterator<Item = Vec3A>) -> Aabb {
 
 /// Segments and unbounded rays through `b`.
 fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 9);
-    let mut v = segments_in(b, n, &mut rng);
-    for r in v.iter_mut().skip(1).step_by(2) {
-        *r = Ray::new(r.origin, r.direction(), 0.0, f32::INFINITY);
-    }
-    v
+    common::segments_and_unbounded_rays(b, n, seed, 9)
 }
 
 #[test]

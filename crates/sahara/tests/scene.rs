@@ -14,21 +14,9 @@ use sahara_fixtures::{
 use sahara_geom::rng::Pcg32;
 use std::panic::AssertUnwindSafe;
 
-/// Every bit of a hit: geometry index, primitive, t, u, v, normal.
-type Bits = (u32, u32, u32, u32, u32, [u32; 3]);
+mod common;
 
-fn bits(h: Option<SceneHit>) -> Option<Bits> {
-    h.map(|h| {
-        (
-            h.geometry.index(),
-            h.primitive,
-            h.t.to_bits(),
-            h.u.to_bits(),
-            h.v.to_bits(),
-            h.normal.to_array().map(f32::to_bits),
-        )
-    })
-}
+use common::{scene_bits as bits, segments_and_rays_from_above};
 
 /// Three meshes (one shifted copy of part of another, so hits tie across geometries), two
 /// empty geometries, masks 1, 2, 4, 1|2.
@@ -54,14 +42,7 @@ fn add_meshes(b: &mut SceneBuilder) -> Vec<GeometryId> {
 }
 
 fn rays(n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 5);
-    let bounds = Aabb::new(Vec3A::splat(-1.2), Vec3A::splat(1.2));
-    let mut rays = segments_in(&bounds, n, &mut rng);
-    for _ in 0..n {
-        let o = Vec3A::new(rng.range_f32(-3.0, 3.0), rng.range_f32(-3.0, 3.0), 4.0);
-        let target = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
-        rays.push(Ray::new(o, target - o, 0.0, f32::INFINITY));
-    }
+    let mut rays = segments_and_rays_from_above(n, seed, 1.2);
     // Invalid rays miss.
     rays.push(Ray::new(Vec3A::splat(f32::NAN), Vec3A::Z, 0.0, 1.0));
     rays.push(Ray::new(Vec3A::ZERO, Vec3A::ZERO, 0.0, 1.0));

@@ -5,24 +5,14 @@
 
 use sahara::file::{SCENE_MAGIC, SCENE_VERSION};
 use sahara::{
-    Aabb, LoadError, Quality, Ray, Scene, SceneBuilder, SceneError, SceneHit, Triangle, Vec3A,
-    ALL_MASK,
+    Aabb, LoadError, Quality, Ray, Scene, SceneBuilder, SceneError, Triangle, Vec3A, ALL_MASK,
 };
 use sahara_fixtures::{rays::segments_in, soups::mixed_soup};
 use sahara_geom::rng::Pcg32;
 
-fn bits(h: Option<SceneHit>) -> Option<(u32, u32, u32, u32, u32, [u32; 3])> {
-    h.map(|h| {
-        (
-            h.geometry.index(),
-            h.primitive,
-            h.t.to_bits(),
-            h.u.to_bits(),
-            h.v.to_bits(),
-            h.normal.to_array().map(f32::to_bits),
-        )
-    })
-}
+mod common;
+
+use common::{reseal, scene_bits as bits};
 
 fn scene(q: Quality) -> Scene {
     let mut b = SceneBuilder::new();
@@ -123,16 +113,6 @@ fn scenes_with_user_primitives_are_not_saved() {
     assert!(file.is_empty(), "nothing is written");
 }
 
-/// FNV-1a 64 of the file's checksummed bytes, to forge consistent checksums.
-fn reseal(file: &mut [u8]) {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in file[8..48].iter().chain(&file[56..]) {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    file[48..56].copy_from_slice(&h.to_le_bytes());
-}
-
 #[test]
 fn every_broken_scene_file_is_a_typed_error() {
     let file = saved(&scene(Quality::High));
@@ -175,7 +155,7 @@ fn every_broken_scene_file_is_a_typed_error() {
     let forged = |edit: &dyn Fn(&mut Vec<u8>)| {
         let mut f = file.clone();
         edit(&mut f);
-        reseal(&mut f);
+        reseal(&mut f, 48);
         load(&f).unwrap_err()
     };
     assert!(matches!(

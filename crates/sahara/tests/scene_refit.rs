@@ -6,36 +6,12 @@ use sahara::{
     Aabb, Error, GeometryId, Intersection, Quality, Ray, Scene, SceneBuilder, SceneError, SceneHit,
     Triangle, Vec3A, ALL_MASK,
 };
-use sahara_fixtures::{
-    rays::segments_in,
-    soups::{exploded, mixed_soup},
-};
+use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::rng::Pcg32;
 
-fn bits(h: Option<SceneHit>) -> Option<(u32, u32, u32, u32, u32, [u32; 3])> {
-    h.map(|h| {
-        (
-            h.geometry.index(),
-            h.primitive,
-            h.t.to_bits(),
-            h.u.to_bits(),
-            h.v.to_bits(),
-            h.normal.to_array().map(f32::to_bits),
-        )
-    })
-}
+mod common;
 
-fn rays(n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 5);
-    let bounds = Aabb::new(Vec3A::splat(-1.5), Vec3A::splat(1.5));
-    let mut rays = segments_in(&bounds, n, &mut rng);
-    for _ in 0..n {
-        let o = Vec3A::new(rng.range_f32(-3.0, 3.0), rng.range_f32(-3.0, 3.0), 4.0);
-        let target = Vec3A::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0), 0.0);
-        rays.push(Ray::new(o, target - o, 0.0, f32::INFINITY));
-    }
-    rays
-}
+use common::{scene_bits as bits, segments_and_rays_from_above};
 
 /// Three meshes with masks 1, 2 and 1|2, and an empty one.
 fn meshes(b: &mut SceneBuilder) -> Vec<(GeometryId, Vec<Triangle>)> {
@@ -141,7 +117,7 @@ fn refitting_unmoved_triangles_is_the_identity() {
 
 #[test]
 fn refit_scenes_equal_brute_force_after_large_random_motion() {
-    let rays = rays(400, 21);
+    let rays = segments_and_rays_from_above(400, 21, 1.5);
     for q in Quality::ALL {
         for with_spheres in [false, true] {
             let mut b = SceneBuilder::new();

@@ -1,6 +1,6 @@
 //! The error type of every fallible operation of the crate.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Why a scene could not be loaded, generated or verified.
 ///
@@ -140,4 +140,12 @@ impl SceneError {
             message: message.into(),
         }
     }
+}
+
+/// The bytes of the file at `path`; [`SceneError::Io`] naming it when it cannot be read.
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, SceneError> {
+    std::fs::read(path).map_err(|source| SceneError::Io {
+        file: path.to_path_buf(),
+        source,
+    })
 }

@@ -33,10 +33,7 @@ const UNSUPPORTED_EXTENSIONS: &[&str] = &[
 /// the file).
 pub fn load_gltf(path: impl AsRef<Path>) -> Result<Mesh, SceneError> {
     let path = path.as_ref();
-    let data = std::fs::read(path).map_err(|source| SceneError::Io {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let data = crate::error::read_file(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     parse_gltf(&data, path, Some(base))
 }

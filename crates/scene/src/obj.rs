@@ -31,20 +31,14 @@ use crate::{Mesh, SceneError};
 /// Reads an OBJ file (plain text) into a [`Mesh`].
 pub fn load_obj(path: impl AsRef<Path>) -> Result<Mesh, SceneError> {
     let path = path.as_ref();
-    let data = std::fs::read(path).map_err(|source| SceneError::Io {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let data = crate::error::read_file(path)?;
     parse_obj(&data, path)
 }
 
 /// Reads a gzip-compressed OBJ file (`.obj.gz`) into a [`Mesh`].
 pub fn load_obj_gz(path: impl AsRef<Path>) -> Result<Mesh, SceneError> {
     let path = path.as_ref();
-    let compressed = std::fs::read(path).map_err(|source| SceneError::Io {
-        file: path.to_path_buf(),
-        source,
-    })?;
+    let compressed = crate::error::read_file(path)?;
     let data = gunzip(&compressed, path)?;
     parse_obj(&data, path)
 }

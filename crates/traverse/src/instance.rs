@@ -626,14 +626,9 @@ impl<B: BottomLevel> InstanceSet<B> {
         ray: &Ray,
         mut closest: impl FnMut(u32, &Ray) -> Hit,
     ) -> Option<InstanceHit> {
-        crate::custom::brute_closest_hit(&self.boxes, ray, |r: &Ray, i, _tmin, tmax| {
-            let h = closest(
-                self.instances[i as usize].blas,
-                &self.object_ray(i, r, tmax),
-            );
-            h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+        self.brute_closest(ray, None, |i, o| {
+            closest(self.instances[i as usize].blas, o)
         })
-        .map(to_instance_hit)
     }
 
     /// The brute-force reference of [`InstanceSet::closest_hit_masked`]: the loop of
@@ -645,17 +640,9 @@ impl<B: BottomLevel> InstanceSet<B> {
         mask: u32,
         mut closest: impl FnMut(u32, &Ray) -> Hit,
     ) -> Option<InstanceHit> {
-        crate::custom::brute_closest_hit(&self.boxes, ray, |r: &Ray, i, _tmin, tmax| {
-            if self.masks[i as usize] & mask == 0 {
-                return None;
-            }
-            let h = closest(
-                self.instances[i as usize].blas,
-                &self.object_ray(i, r, tmax),
-            );
-            h.is_hit().then_some((h.t, (h.prim, h.u, h.v)))
+        self.brute_closest(ray, Some(mask), |i, o| {
+            closest(self.instances[i as usize].blas, o)
         })
-        .map(to_instance_hit)
     }
 
     /// The brute-force reference of [`InstanceSet::closest_hit_with`]: the loop of
@@ -681,10 +668,22 @@ impl<B: BottomLevel> InstanceSet<B> {
         &self,
         ray: &Ray,
         mask: u32,
+        closest: impl FnMut(u32, &Ray) -> Hit,
+    ) -> Option<InstanceHit> {
+        self.brute_closest(ray, Some(mask), closest)
+    }
+
+    /// The closest-hit brute force: `closest(instance, object_ray)` for every instance in
+    /// index order whose mask meets `mask` (every instance when `None`), under the hit rule
+    /// and tie-break of `custom::brute_closest_hit`.
+    fn brute_closest(
+        &self,
+        ray: &Ray,
+        mask: Option<u32>,
         mut closest: impl FnMut(u32, &Ray) -> Hit,
     ) -> Option<InstanceHit> {
         crate::custom::brute_closest_hit(&self.boxes, ray, |r: &Ray, i, _tmin, tmax| {
-            if self.masks[i as usize] & mask == 0 {
+            if mask.is_some_and(|m| self.masks[i as usize] & m == 0) {
                 return None;
             }
             let h = closest(i, &self.object_ray(i, r, tmax));

@@ -14,9 +14,9 @@ use rayon::prelude::*;
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_fixtures::rays::scene_rays;
 use sahara_fixtures::scenes::{shared_scene_files, verify_all};
-use sahara_geom::Triangle;
+use sahara_geom::{Ray, Triangle};
 use sahara_scene::{Catalog, Procedural};
-use sahara_traverse::{brute, scalar, NoStats};
+use sahara_traverse::{brute, scalar, Hit, NoStats, WideBvh};
 
 /// Shared scenes above this many triangles are checked by `cargo xtask verify` only (the
 /// brute-force answers of their 10^4 rays dominate the suite's time otherwise).
@@ -62,33 +62,37 @@ fn check_scene(
         // The wide layouts collapsed from this tree answer exactly like brute force too.
         let w4 = sahara_traverse::Bvh4::from_bvh(&bvh, &tris);
         let w8 = sahara_traverse::Bvh8::from_bvh(&bvh, &tris);
-        for (i, r) in rays.iter().enumerate() {
-            assert_eq!(
-                w4.closest_hit(r, &mut NoStats),
-                expect[i],
-                "{b}/bvh4 on {name}: ray {i}"
-            );
-            assert_eq!(
-                w8.closest_hit(r, &mut NoStats),
-                expect[i],
-                "{b}/bvh8 on {name}: ray {i}"
-            );
-            assert_eq!(
-                w4.any_hit(r, &mut NoStats),
-                expect_any[i],
-                "{b}/bvh4 any-hit, ray {i}"
-            );
-            assert_eq!(
-                w8.any_hit(r, &mut NoStats),
-                expect_any[i],
-                "{b}/bvh8 any-hit, ray {i}"
-            );
-        }
+        wide_answers_as_expected(&w4, &rays, &expect, &expect_any, b, name);
+        wide_answers_as_expected(&w8, &rays, &expect, &expect_any, b, name);
         let sah = sahara_metrics::sah(&bvh, &input.cost);
         assert!(sah.is_finite(), "{b} on {name}: SAH {sah}");
         out.push((b.to_string(), sah, bvh.stats().max_leaf));
     }
     out
+}
+
+/// `wide` answers every ray's closest and any hit as `expect` and `expect_any` say (builder
+/// `b`, scene `name`).
+fn wide_answers_as_expected<const W: usize>(
+    wide: &WideBvh<W>,
+    rays: &[Ray],
+    expect: &[Hit],
+    expect_any: &[bool],
+    b: &str,
+    name: &str,
+) {
+    for (i, r) in rays.iter().enumerate() {
+        assert_eq!(
+            wide.closest_hit(r, &mut NoStats),
+            expect[i],
+            "{b}/bvh{W} on {name}: ray {i}"
+        );
+        assert_eq!(
+            wide.any_hit(r, &mut NoStats),
+            expect_any[i],
+            "{b}/bvh{W} any-hit, ray {i}"
+        );
+    }
 }
 
 fn sah_of(results: &[(String, f64, usize)], builder: &str) -> f64 {

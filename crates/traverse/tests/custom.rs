@@ -3,6 +3,9 @@
 //! rejects half of them; a callback that lies about its distances; triangles and spheres in
 //! one tree).
 
+#[allow(unused_imports)]
+mod wide_common;
+
 #[path = "../examples/spheres.rs"]
 #[allow(dead_code)]
 mod spheres;
@@ -12,18 +15,8 @@ use sahara_bvh::Bvh;
 use sahara_fixtures::rays::point_in;
 use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
-use sahara_traverse::{custom, Backend, Bvh4, Bvh8, Hit, NoStats, WideBvh};
-
-fn backends() -> Vec<Backend> {
-    Backend::ALL
-        .into_iter()
-        .filter(|b| b.is_available())
-        .collect()
-}
-
-fn bits(h: &Hit) -> (u32, u32, u32, u32) {
-    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
-}
+use sahara_traverse::{custom, Bvh4, Bvh8, Hit, NoStats, WideBvh};
+use wide_common::{backends, bits};
 
 fn build(name: &str, input: &BuildInput) -> Bvh {
     registry::by_name(name).unwrap().build(input).unwrap()

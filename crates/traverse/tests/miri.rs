@@ -19,19 +19,8 @@ use sahara_bvh::Bvh;
 use sahara_fixtures::soups::mixed_soup;
 use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::instance::{Instance, InstanceSet};
-use sahara_traverse::{brute, custom, Backend, Bvh4, Bvh8, Hit, NoStats, Precision, WideBvh};
+use sahara_traverse::{brute, custom, Bvh4, Bvh8, Hit, NoStats, Precision, WideBvh};
 use wide_common::*;
-
-fn backends() -> Vec<Backend> {
-    Backend::ALL
-        .into_iter()
-        .filter(|b| b.is_available())
-        .collect()
-}
-
-fn bits(h: &Hit) -> (u32, u32, u32, u32) {
-    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
-}
 
 fn scene_box(tris: &[Triangle]) -> Aabb {
     tris.iter().fold(Aabb::EMPTY, |b, t| b.union(&t.bounds()))

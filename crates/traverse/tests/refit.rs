@@ -5,24 +5,17 @@
 //! their references' split regions; spatial-split trees without cut records stay correct;
 //! bad input is a typed error that leaves the tree unchanged.
 
+#[allow(unused_imports)]
+mod wide_common;
+
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::{Bvh, RefitError};
 use sahara_fixtures::meshes::mesh_like;
 use sahara_fixtures::rays::point_in;
 use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
-use sahara_traverse::{brute, custom, scalar, Backend, Bvh4, Bvh8, Hit, NoStats, WideBvh};
-
-fn backends() -> Vec<Backend> {
-    Backend::ALL
-        .into_iter()
-        .filter(|b| b.is_available())
-        .collect()
-}
-
-fn bits(h: &Hit) -> (u32, u32, u32, u32) {
-    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
-}
+use sahara_traverse::{brute, custom, scalar, Bvh4, Bvh8, NoStats, WideBvh};
+use wide_common::{backends, bits};
 
 fn build(name: &str, tris: &[Triangle]) -> Bvh {
     let input = BuildInput::new(tris, CostModel::default()).unwrap();

@@ -6,24 +6,13 @@ mod wide_common;
 
 use sahara_bvh::Bvh;
 use sahara_fixtures::soups::mixed_soup;
-use sahara_geom::intersect::{intersect_triangle, intersect_triangle_fast};
+use sahara_geom::intersect::{intersect_ray_triangle, intersect_ray_triangle_fast, TriangleHit};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{
     brute, scalar, simd_backend, Backend, Bvh4, Bvh8, Hit, HitLocation, NoStats, Precision,
     WideBvh, WorkCounters,
 };
 use wide_common::*;
-
-fn backends() -> Vec<Backend> {
-    Backend::ALL
-        .into_iter()
-        .filter(|b| b.is_available())
-        .collect()
-}
-
-fn bits(h: &Hit) -> (u32, u32, u32, u32) {
-    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
-}
 
 /// The closest hit of `wide` with backend `b`, after checking that the location it recorded
 /// names the hit triangle: `tris[hit.prim]` bit for bit (`None` for a miss).
@@ -72,35 +61,27 @@ fn check_wide<const W: usize>(
             "{what}: scalar any hit of ray {i} {ray:?}",
         );
         hits += want.is_hit() as usize;
-        for b in backends() {
-            let got = located_hit(wide, b, tris, ray);
-            assert_eq!(
-                bits(&got),
-                bits(&want),
-                "{what}: bvh{W} {b} closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
-            );
-            let got_any = wide.any_hit_with(b, ray, &mut NoStats);
-            assert_eq!(
-                got_any, want_any,
-                "{what}: bvh{W} {b} any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
-            );
-        }
+        // Every backend of `tree` answers as `want` and `want_any` (`precision` names the test).
+        let backends_agree = |tree: &WideBvh<W>, want: Hit, want_any: bool, precision: &str| {
+            for b in backends() {
+                let got = located_hit(tree, b, tris, ray);
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "{what}: bvh{W} {b} {precision}closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
+                );
+                let got_any = tree.any_hit_with(b, ray, &mut NoStats);
+                assert_eq!(
+                    got_any, want_any,
+                    "{what}: bvh{W} {b} {precision}any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
+                );
+            }
+        };
+        backends_agree(wide, want, want_any, "");
         // The fast precision against its own twin.
         let want = brute::closest_hit_at(tris, ray, Precision::Fast);
         let want_any = brute::any_hit_at(tris, ray, Precision::Fast);
-        for b in backends() {
-            let got = located_hit(&fast, b, tris, ray);
-            assert_eq!(
-                bits(&got),
-                bits(&want),
-                "{what}: bvh{W} {b} fast closest hit of ray {i} {ray:?}: got {got:?}, want {want:?}",
-            );
-            let got_any = fast.any_hit_with(b, ray, &mut NoStats);
-            assert_eq!(
-                got_any, want_any,
-                "{what}: bvh{W} {b} fast any hit of ray {i} {ray:?}: got {got_any}, want {want_any}",
-            );
-        }
+        backends_agree(&fast, want, want_any, "fast ");
     }
     hits
 }
@@ -368,6 +349,15 @@ fn packet_test_is_bit_exact() {
         let one = [*tri];
         let bvh = median_bvh(&one, 1);
         let (w4, w8) = (Bvh4::from_bvh(&bvh, &one), Bvh8::from_bvh(&bvh, &one));
+        // The one triangle's test result as the kernels' hit.
+        let as_hit = |h: Option<TriangleHit>| {
+            h.map_or(Hit::MISS, |h| Hit {
+                t: h.t,
+                prim: 0,
+                u: h.u,
+                v: h.v,
+            })
+        };
         for k in 0..40 {
             let target = match k % 4 {
                 0 => tri.v[k % 3],
@@ -382,13 +372,7 @@ fn packet_test_is_bit_exact() {
                 0.0,
                 if k % 7 == 0 { 0.999 } else { f32::INFINITY },
             );
-            let want = intersect_triangle(&ray.watertight(), tri, ray.tmin, ray.tmax);
-            let want = want.map_or(Hit::MISS, |h| Hit {
-                t: h.t,
-                prim: 0,
-                u: h.u,
-                v: h.v,
-            });
+            let want = as_hit(intersect_ray_triangle(&ray, tri));
             for b in backends() {
                 assert_eq!(
                     bits(&w4.closest_hit_with(b, &ray, &mut NoStats)),
@@ -403,20 +387,7 @@ fn packet_test_is_bit_exact() {
                 assert_eq!(w8.any_hit_with(b, &ray, &mut NoStats), want.is_hit());
             }
             // The Möller–Trumbore lanes against the scalar fast test.
-            let want = intersect_triangle_fast(
-                ray.origin,
-                ray.direction(),
-                ray.inv_direction(),
-                tri,
-                ray.tmin,
-                ray.tmax,
-            );
-            let want = want.map_or(Hit::MISS, |h| Hit {
-                t: h.t,
-                prim: 0,
-                u: h.u,
-                v: h.v,
-            });
+            let want = as_hit(intersect_ray_triangle_fast(&ray, tri));
             let (f4, f8) = (
                 w4.clone().with_precision(Precision::Fast),
                 w8.clone().with_precision(Precision::Fast),

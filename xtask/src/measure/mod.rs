@@ -24,7 +24,9 @@ mod sbvh;
 mod tsah;
 
 use crate::util;
-use anyhow::Result;
+use anyhow::{Context, Result};
+use sahara_builders::{BuildError, Bvh};
+use sahara_geom::Triangle;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -120,6 +122,28 @@ pub fn load(catalog: &sahara_scene::Catalog, name: &str) -> Option<util::LoadedS
             None
         }
     }
+}
+
+/// The scenes of `names` that load, in order, each loaded when the iteration reaches it (a
+/// scene that does not load is skipped with a message, [`load`]).
+pub fn loaded_scenes<'a>(
+    catalog: &'a sahara_scene::Catalog,
+    names: &'a [String],
+) -> impl Iterator<Item = util::LoadedScene> + 'a {
+    names.iter().filter_map(move |name| load(catalog, name))
+}
+
+/// A harness's tree over `tris`, validated; the errors name the builder `label` and `scene`.
+pub fn valid_tree(
+    built: std::result::Result<Bvh, BuildError>,
+    label: &str,
+    scene: &str,
+    tris: &[Triangle],
+) -> Result<Bvh> {
+    let bvh = built.with_context(|| format!("{label} on {scene}"))?;
+    bvh.validate(tris)
+        .with_context(|| format!("{label} on {scene}: invalid tree"))?;
+    Ok(bvh)
 }
 
 /// A row of a harness's table: its line of the table, and (its `Serialize`) its JSON record.

@@ -2,9 +2,9 @@
 //! and the spatial temporary-subtree builder's configurations against SBVH, each tree
 //! validated (`docs/builders-classic.md`, "Measurements").
 
-use super::{load, relative, Common, Row};
+use super::{loaded_scenes, relative, valid_tree, Common, Row};
 use crate::util;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use sahara_builders::sbvh::{SbvhBuilder, SbvhConfig};
 use sahara_builders::tsah_spatial::{TemporarySearch, TsahSpatialBuilder, TsahSpatialConfig};
 use sahara_builders::{BuildInput, Builder, CostModel};
@@ -92,16 +92,11 @@ pub fn sbvh(a: &SbvhArgs) -> Result<Vec<SbvhRow>> {
     )]);
     let catalog = a.common.catalog();
     let mut rows = Vec::new();
-    for scene in &a.scenes {
-        let Some(s) = load(&catalog, scene) else {
-            continue;
-        };
+    for s in loaded_scenes(&catalog, &a.scenes) {
         let input = BuildInput::new(&s.triangles, CostModel::default())?;
         for (name, builder) in a.builders.iter().zip(&builders) {
             let (times, bvh) = util::time_runs(a.repeat, || builder.build(&input));
-            let bvh = bvh.with_context(|| format!("{name} on {}", s.name))?;
-            bvh.validate(&s.triangles)
-                .with_context(|| format!("{name} on {}: invalid tree", s.name))?;
+            let bvh = valid_tree(bvh, name, &s.name, &s.triangles)?;
             let row = SbvhRow {
                 scene: s.name.clone(),
                 builder: name.clone(),
@@ -229,17 +224,12 @@ pub fn tsah_spatial(a: &TsahSpatialArgs) -> Result<Vec<SpatialRow>> {
     out.note(&format!("threads: {}", rayon::current_num_threads()));
     let catalog = a.common.catalog();
     let mut rows = Vec::new();
-    for scene in &a.scenes {
-        let Some(s) = load(&catalog, scene) else {
-            continue;
-        };
+    for s in loaded_scenes(&catalog, &a.scenes) {
         let input = BuildInput::new(&s.triangles, CostModel::default())?;
         let build =
             |name: &str, b: &dyn Builder, base: Option<&SpatialRow>| -> Result<SpatialRow> {
                 let (times, bvh) = util::time_runs(1, || b.build(&input));
-                let bvh = bvh.with_context(|| format!("{name} on {}", s.name))?;
-                bvh.validate(&s.triangles)
-                    .with_context(|| format!("{name} on {}: invalid tree", s.name))?;
+                let bvh = valid_tree(bvh, name, &s.name, &s.triangles)?;
                 let sah = sah(&bvh, &input.cost);
                 Ok(SpatialRow {
                     scene: s.name.clone(),

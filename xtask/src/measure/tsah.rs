@@ -3,7 +3,7 @@
 //! SAH (and with `--epo` EPO) against the sweep tree of the same scene
 //! (`docs/builders-tsah.md`, "Results" and "Reproducing").
 
-use super::{load, relative, Common, Out, Row};
+use super::{load, loaded_scenes, relative, valid_tree, Common, Out, Row};
 use crate::util;
 use anyhow::{Context, Result};
 use sahara_builders::popov::{PopovBuilder, PopovConfig};
@@ -179,9 +179,7 @@ fn measure(
     let c0 = util::cpu_ms();
     let (times, bvh) = util::time_runs(1, || builder.build(&input));
     let cpu_ms = util::cpu_ms() - c0;
-    let bvh = bvh.with_context(|| format!("{label} on {scene}"))?;
-    bvh.validate(tris)
-        .with_context(|| format!("{label} on {scene}: invalid tree"))?;
+    let bvh = valid_tree(bvh, label, scene, tris)?;
     let sah = sah(&bvh, &input.cost);
     let epo = epo.then(|| sahara_metrics::epo(&bvh, tris, &input.cost));
     Ok(BuildRow {
@@ -215,10 +213,7 @@ fn registered(
     header(&out, "builder");
     let catalog = common.catalog();
     let mut rows = Vec::new();
-    for scene in scenes {
-        let Some(s) = load(&catalog, scene) else {
-            continue;
-        };
+    for s in loaded_scenes(&catalog, scenes) {
         let mut base: Option<BuildRow> = None;
         for (name, b) in names.iter().zip(&builders) {
             let row = measure(&s.name, name, b.as_ref(), &s.triangles, epo, base.as_ref())?;

@@ -3,8 +3,30 @@
 #![allow(dead_code)]
 
 use sahara_builders::{BuildInput, Builder, Bvh};
+use sahara_fixtures::meshes::mesh_like;
+use sahara_fixtures::soups::{box_soup, clustered_boxes, named_degenerates};
 use sahara_geom::Triangle;
 use sahara_metrics::CostModel;
+
+/// Named test inputs followed by `sahara_fixtures::soups::named_degenerates()`.
+pub fn with_degenerates(named: Vec<(&str, Vec<Triangle>)>) -> Vec<(String, Vec<Triangle>)> {
+    named
+        .into_iter()
+        .chain(named_degenerates())
+        .map(|(n, t)| (n.to_string(), t))
+        .collect()
+}
+
+/// The inputs of the sweep and PLOC tests: box soups of 3000 and 20 000, 3000 clustered boxes,
+/// a 40 × 40 mesh, and the degenerates.
+pub fn soups_mesh_and_degenerates() -> Vec<(String, Vec<Triangle>)> {
+    with_degenerates(vec![
+        ("soup-3000", box_soup(3000, 1)),
+        ("soup-20000", box_soup(20_000, 2)),
+        ("clustered-3000", clustered_boxes(3000, 3)),
+        ("mesh-40", mesh_like(40, 4)),
+    ])
+}
 
 /// Builds in a rayon pool of `threads` threads.
 pub fn build_in(builder: &dyn Builder, tris: &[Triangle], threads: usize) -> Bvh {

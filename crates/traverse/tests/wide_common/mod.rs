@@ -1,9 +1,29 @@
 //! Scenes, tiny builders and ray sets of the wide-BVH tests (random soups are
-//! `sahara_fixtures::soups::mixed_soup`, the binned SAH tree `sahara_fixtures::trees::sah_bvh`).
+//! `sahara_fixtures::soups::mixed_soup`, the binned SAH tree `sahara_fixtures::trees::sah_bvh`),
+//! and the backends and hit bits every layout test compares over (`custom.rs`, `miri.rs`,
+//! `refit.rs`, `wide.rs`).
 #![allow(dead_code)]
 
 use sahara_bvh::{Bvh, Node};
 use sahara_geom::{clip, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
+use sahara_traverse::{Backend, Hit};
+
+// ---------------------------------------------------------------------------------------------
+// Backends and hits
+// ---------------------------------------------------------------------------------------------
+
+/// The SIMD backends this CPU runs (the portable fallback included).
+pub fn backends() -> Vec<Backend> {
+    Backend::ALL
+        .into_iter()
+        .filter(|b| b.is_available())
+        .collect()
+}
+
+/// A hit as bits, for exact comparisons: distance, primitive, barycentrics.
+pub fn bits(h: &Hit) -> (u32, u32, u32, u32) {
+    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
+}
 
 // ---------------------------------------------------------------------------------------------
 // Scenes
