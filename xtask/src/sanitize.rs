@@ -1,7 +1,8 @@
 //! `cargo xtask sanitize`: the test suites of the crates with unsafe code under AddressSanitizer
-//! (and ThreadSanitizer with `--thread`), on nightly with the standard library rebuilt
-//! instrumented (`-Zbuild-std`). The suites compare every backend the CPU runs (AVX-512
-//! included, which Miri cannot run) with brute force, so one run per sanitizer covers them all.
+//! (and ThreadSanitizer with `--sanitizers address,thread`), on nightly with the standard
+//! library rebuilt instrumented (`-Zbuild-std`). The suites compare every backend the CPU runs
+//! (AVX-512 included, which Miri cannot run) with brute force, so one run per sanitizer covers
+//! them all.
 //! docs/robustness.md records what ran where.
 
 use anyhow::{ensure, Context};
@@ -13,7 +14,8 @@ pub struct Args {
     /// Which sanitizers: `address`, `thread` or both (comma-separated).
     #[arg(long, default_value = "address")]
     sanitizers: String,
-    /// Only the packages whose name contains this text.
+    /// Only this package (`--only sahara` is the façade alone), or, when no package has this
+    /// exact name, the packages whose name contains the text (`--only traverse`).
     #[arg(long)]
     only: Option<String>,
     /// The short form CI runs: AddressSanitizer over the unit tests of `sahara-traverse` and
@@ -74,10 +76,32 @@ fn run_short(args: &Args) -> anyhow::Result<()> {
 pub const SANITIZED_PACKAGES: &[&str] =
     &["sahara-traverse", "sahara-builders", "sahara-bvh", "sahara"];
 
+/// The packages `--only` selects: the one named exactly so, else those whose name contains it
+/// (every crate's name contains `sahara`, so a plain substring match would take them all).
+fn selected(only: Option<&str>) -> anyhow::Result<Vec<&'static str>> {
+    let Some(only) = only else {
+        return Ok(SANITIZED_PACKAGES.to_vec());
+    };
+    if let Some(exact) = SANITIZED_PACKAGES.iter().find(|p| **p == only) {
+        return Ok(vec![*exact]);
+    }
+    let some: Vec<_> = SANITIZED_PACKAGES
+        .iter()
+        .copied()
+        .filter(|p| p.contains(only))
+        .collect();
+    ensure!(
+        !some.is_empty(),
+        "--only {only}: no package of {SANITIZED_PACKAGES:?} matches"
+    );
+    Ok(some)
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     if args.short {
         return run_short(&args);
     }
+    let packages = selected(args.only.as_deref())?;
     let target = host_target(Some("+nightly"))?;
     let mut failed = Vec::new();
     for sanitizer in args.sanitizers.split(',').map(str::trim) {
@@ -85,12 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ["address", "thread"].contains(&sanitizer),
             "unknown sanitizer `{sanitizer}` (address or thread)"
         );
-        for package in SANITIZED_PACKAGES {
-            if let Some(only) = &args.only {
-                if !package.contains(only.as_str()) {
-                    continue;
-                }
-            }
+        for &package in &packages {
             eprintln!("== {sanitizer} sanitizer: {package}");
             let t0 = std::time::Instant::now();
             let mut cmd = Command::new("cargo");
@@ -147,4 +166,21 @@ fn host_target(toolchain: Option<&str>) -> anyhow::Result<String> {
         .lines()
         .find_map(|l| l.strip_prefix("host: ").map(str::to_string))
         .context("no host line in `rustc -vV`")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::selected;
+
+    #[test]
+    fn only_takes_an_exact_name_before_a_part_of_one() {
+        assert_eq!(selected(Some("sahara")).unwrap(), ["sahara"]);
+        assert_eq!(
+            selected(Some("sahara-builders")).unwrap(),
+            ["sahara-builders"]
+        );
+        assert_eq!(selected(Some("traverse")).unwrap(), ["sahara-traverse"]);
+        assert_eq!(selected(None).unwrap().len(), 4);
+        assert!(selected(Some("geom")).is_err());
+    }
 }
