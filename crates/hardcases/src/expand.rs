@@ -613,11 +613,53 @@ pub fn barycentric_resolution(tri: &Triangle, ray: &Ray) -> f64 {
     }
 }
 
+/// The rounding error of the `f32` watertight test's distance `t` for this ray and triangle,
+/// bounded a priori (`f64`, from the `f32` inputs): the test computes `t · det` as
+/// `Σ e_i z_i` (the edge functions times the vertices' scaled distances along the ray), whose
+/// terms can be far larger than their sum when the triangle is far larger than the hit's
+/// distance (a triangle 10^8 wide hit 3 units from the origin: terms of 10^25 summing to
+/// 10^18). Bound: `C ε (Σ |e_i z_i| + 3 M S Z) / |det|`, `Z` the largest `|z_i|` and `M`, `S`
+/// as in [`barycentric_resolution`] (each edge function's own error times `Z`), `C ε = 16 ε`.
+/// A hit whose exact `t` lies within it of an end of the ray's span may fall on either side
+/// in `f32`. `+inf` when `det` is zero or the inputs are not finite.
+pub fn distance_resolution(tri: &Triangle, ray: &Ray) -> f64 {
+    let o = ray.origin.as_dvec3();
+    let d = ray.direction().as_dvec3();
+    let kz = d.abs().max_position();
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    let (mut m, mut s, mut z) = (0.0f64, 0.0f64, 0.0f64);
+    let sheared = tri.v.map(|v| {
+        let a = v.as_dvec3() - o;
+        m = m.max(a[kx].abs() + (sx * a[kz]).abs());
+        m = m.max(a[ky].abs() + (sy * a[kz]).abs());
+        let p = (a[kx] - sx * a[kz], a[ky] - sy * a[kz], sz * a[kz]);
+        s = s.max(p.0.abs()).max(p.1.abs());
+        z = z.max(p.2.abs());
+        p
+    });
+    let [(ax, ay, az), (bx, by, bz), (cx, cy, cz)] = sheared;
+    let e = [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax];
+    let det = e[0] + e[1] + e[2];
+    let terms = (e[0] * az).abs() + (e[1] * bz).abs() + (e[2] * cz).abs();
+    let bound = 32.0 * f64::from(f32::EPSILON) * 0.5 * (terms + 3.0 * m * s * z) / det.abs();
+    if bound.is_nan() {
+        f64::INFINITY
+    } else {
+        bound
+    }
+}
+
 /// True when the exact hit `h` (of the triangle it names) lies within the `f32` test's
-/// barycentric rounding error ([`barycentric_resolution`]) of an edge of its triangle.
+/// rounding error of an edge of its triangle ([`barycentric_resolution`]) or of an end of the
+/// ray's span ([`distance_resolution`]).
 fn unresolvable(tris: &[Triangle], h: &sahara_oracle::ExactHit, ray: &Ray) -> bool {
-    tris.get(h.prim as usize)
-        .is_some_and(|t| h.min_bary < barycentric_resolution(t, ray))
+    tris.get(h.prim as usize).is_some_and(|t| {
+        let dt = distance_resolution(t, ray);
+        h.min_bary < barycentric_resolution(t, ray)
+            || h.t - f64::from(ray.tmin) < dt
+            || f64::from(ray.tmax) - h.t < dt
+    })
 }
 
 /// The exact precision's answers (brute force, which every exact kernel equals) judged by

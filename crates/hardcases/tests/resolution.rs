@@ -1,4 +1,4 @@
-//! The four rays the fuzz replay once reported as real hits missed (issue 46's
+//! The five rays the fuzzers once reported as real hits missed (issue 46's
 //! `OPEN_FINDINGS`, triaged 2026-12-07): each passes inside a triangle by the exact oracle,
 //! away from its edges by more than the oracle's edge band (10^-4 barycentric), and the
 //! `f32` watertight test misses it. In every case the hit lies within the test's own
@@ -7,10 +7,12 @@
 //! one ulp wide. These are limits of `f32`, not of the implementation (docs/robustness.md,
 //! "Limits"); the check that judges fuzz inputs counts them apart, and this test keeps the
 //! bound honest on both sides: it explains these four and does not explain ordinary hits.
+//! The fifth is a distance, not a barycentric, beyond `f32`'s reach: a huge triangle hit
+//! near the ray's origin ([`distance_resolution`]).
 
 use sahara_geom::intersect::intersect_ray_triangle;
 use sahara_geom::{Ray, Triangle, Vec3A};
-use sahara_hardcases::expand::barycentric_resolution;
+use sahara_hardcases::expand::{barycentric_resolution, distance_resolution};
 use sahara_hardcases::pinning::oracle_for;
 use sahara_oracle::{OracleRay, EDGE_BAND};
 
@@ -111,6 +113,46 @@ fn the_triaged_misses_lie_within_the_f32_tests_rounding_error() {
     }
 }
 
+/// The fifth finding (a free `big_scene` run, 2026-12-07,
+/// `docs/results/2026-12-07-fuzz-coverage/finding-soup64-cluster-binned-missed.bin`): a
+/// triangle about 5·10^8 wide hit at its centroid (barycentrics all 1/3) 3.19 units from the
+/// ray's origin. The barycentrics are resolved; the distance is not: the test computes
+/// `t · det` as a sum of terms near 10^25 that cancel to 10^18, and rounds it below `tmin`.
+/// The miss lies within [`distance_resolution`].
+#[test]
+fn a_huge_triangle_near_the_origin_is_within_the_distance_resolution() {
+    let p = |b: [u32; 3]| Vec3A::from_array(b.map(f32::from_bits));
+    let tri = Triangle::new(
+        p([1289984624, 3446100756, 1299945598]),
+        p([3446430700, 1296640700, 1245563744]),
+        p([1291132264, 1274102464, 3447623594]),
+    );
+    let r = ray(
+        p([3202563486, 3210338262, 3195707982]),
+        p([1053325836, 1064123884, 1064216826]),
+    );
+    let oracle = oracle_for(&[tri]);
+    let or = OracleRay {
+        origin: r.origin.to_array(),
+        dir: r.direction().to_array(),
+        tmin: r.tmin,
+        tmax: r.tmax,
+    };
+    let h = oracle
+        .exact(0, &or)
+        .filter(|h| h.is_strict())
+        .expect("a strict hit");
+    assert!((h.t - 3.193).abs() < 1e-3, "t {}", h.t);
+    assert!(h.min_bary > 0.33, "{}", h.min_bary);
+    assert!(h.min_bary > barycentric_resolution(&tri, &r));
+    assert!(
+        intersect_ray_triangle(&r, &tri).is_none(),
+        "the f32 test hits now"
+    );
+    let dt = distance_resolution(&tri, &r);
+    assert!(h.t < dt, "t {} beyond the distance bound {dt:e}", h.t);
+}
+
 /// Ordinary hits are not excused: a ray along the normal, one at 60 degrees, and one from a
 /// ten units away, each 10^-3 (barycentric) inside an edge of a unit triangle, have a
 /// bound far below that, and the f32 test finds them.
@@ -130,6 +172,8 @@ fn ordinary_hits_near_an_edge_are_beyond_the_bound() {
         let min_bary = exact_min_bary(&tri, &r).expect("a strict hit");
         assert!(min_bary > 10.0 * res, "{what}: {min_bary:e} vs {res:e}");
         assert!(intersect_ray_triangle(&r, &tri).is_some(), "{what}: missed");
+        let dt = distance_resolution(&tri, &r);
+        assert!(dt < 1e-4, "{what}: distance bound {dt:e}");
     }
     // Degenerate input: no finite bound.
     let flat = Triangle::new(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(2.0, 0.0, 0.0));
