@@ -647,7 +647,8 @@ impl<B: BottomLevel> InstanceSet<B> {
 
     /// The brute-force reference of [`InstanceSet::closest_hit_with`]: the loop of
     /// [`InstanceSet::brute_closest_hit_masked`] with `closest(instance, object_ray)` (the
-    /// instance's index, not its tree's).
+    /// instance's index, not its tree's). The example shows
+    /// [`InstanceSet::brute_any_hit_with`] too.
     ///
     /// ```
     /// use sahara_bvh::{Bvh, Node};
@@ -663,6 +664,9 @@ impl<B: BottomLevel> InstanceSet<B> {
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
     /// let brute = set.brute_closest_hit_with(&ray, u32::MAX, |_, o| brute::closest_hit(&[tri], o));
     /// assert_eq!(brute, set.closest_hit(&ray, &mut NoStats));
+    /// // The any-hit reference, with every mask and with none.
+    /// assert!(set.brute_any_hit_with(&ray, u32::MAX, |_, o| brute::any_hit(&[tri], o)));
+    /// assert!(!set.brute_any_hit_with(&ray, 0, |_, o| brute::any_hit(&[tri], o)));
     /// ```
     pub fn brute_closest_hit_with(
         &self,
@@ -706,23 +710,8 @@ impl<B: BottomLevel> InstanceSet<B> {
 
     /// The brute-force reference of [`InstanceSet::any_hit_with`]: every instance in index
     /// order whose mask meets `mask` and whose world box the ray passes (the query's culling
-    /// test), `any(instance, object_ray)`.
-    ///
-    /// ```
-    /// use sahara_bvh::{Bvh, Node};
-    /// use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
-    /// use sahara_traverse::instance::{Instance, InstanceSet};
-    /// use sahara_traverse::{brute, Bvh8, NoStats};
-    /// use glam::Affine3A;
-    ///
-    /// let tri = Triangle::new(Vec3A::new(-1.0, -1.0, 2.0), Vec3A::new(1.0, -1.0, 2.0), Vec3A::new(0.0, 1.0, 2.0));
-    /// let blas = Bvh8::from_bvh(&Bvh { nodes: vec![Node::leaf(&tri.bounds(), 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None }, &[tri]);
-    /// let one = |b: &[Aabb]| Bvh { nodes: vec![Node::leaf(&b[0], 0, 1)], prim_indices: vec![0], spatial_splits: false, ref_cuts: None };
-    /// let set = InstanceSet::new(vec![blas], vec![Instance { blas: 0, transform: Affine3A::IDENTITY }], one).unwrap();
-    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY);
-    /// assert!(set.brute_any_hit_with(&ray, u32::MAX, |_, o| brute::any_hit(&[tri], o)));
-    /// assert!(!set.brute_any_hit_with(&ray, 0, |_, o| brute::any_hit(&[tri], o)));
-    /// ```
+    /// test), `any(instance, object_ray)`. The example of
+    /// [`InstanceSet::brute_closest_hit_with`] uses both.
     pub fn brute_any_hit_with(
         &self,
         ray: &Ray,
