@@ -23,6 +23,36 @@ pub(crate) fn widen(t: f32) -> f32 {
     t + t.abs() * (1.0 / 65536.0)
 }
 
+/// The body of a backend's entry point for the rays and trees its fast path does not take (the
+/// x86 backends' out-of-line paths, the portable entry points): `$traverse` (closest or any hit) with the inline stack when the tree's stack bound fits it, else a heap stack, and
+/// the conservative far distances of rays with `tmin < 0` when the ray has one.
+macro_rules! slow_path {
+    ($($traverse:ident)::+, $kernel:ty, $bvh:expr, $ray:expr, $stats:expr) => {{
+        let (bvh, ray, stats) = ($bvh, $ray, $stats);
+        let neg = ray.tmin < 0.0;
+        // SAFETY: the caller guarantees the CPU features; `FixedStack` only when the bound
+        // fits.
+        #[allow(unused_unsafe)]
+        unsafe {
+            if bvh.max_stack <= FIXED_STACK {
+                let mut buf = FixedStack::buffer();
+                let st = &mut FixedStack::new(&mut buf);
+                return if neg {
+                    $($traverse)::+::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+                } else {
+                    $($traverse)::+::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+                };
+            }
+            let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
+            if neg {
+                $($traverse)::+::<$kernel, W, S, _, true>(bvh, ray, stats, st)
+            } else {
+                $($traverse)::+::<$kernel, W, S, _, false>(bvh, ray, stats, st)
+            }
+        }
+    }};
+}
+
 /// Per-ray constants shared by every backend.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RayData {

@@ -83,6 +83,7 @@
 
 mod collapse;
 mod custom;
+#[macro_use]
 mod kernel;
 mod memory;
 mod portable;
@@ -290,6 +291,56 @@ pub struct WideBvh<const W: usize> {
 /// Empty-tree root marker.
 pub(crate) const NO_ROOT: u32 = u32::MAX;
 
+/// The body of [`WideBvh::closest_hit_with`] and [`WideBvh::any_hit_with`]: the entry point of
+/// `backend` at the tree's precision (`[exact, fast]` per x86 backend, then the portable
+/// function), falling back to the portable kernels when the CPU lacks the backend.
+macro_rules! dispatch {
+    ($bvh:expr, $backend:expr, $ray:expr, $stats:expr,
+     [$avx512:ident, $avx512_fast:ident], [$avx2:ident, $avx2_fast:ident],
+     [$sse2:ident, $sse2_fast:ident], $portable:ident) => {{
+        let bvh = $bvh;
+        let backend = $backend;
+        let fast = bvh.precision == Precision::Fast;
+        match backend {
+            #[cfg(target_arch = "x86_64")]
+            Backend::Avx512 if backend == bvh.backend || Backend::Avx512.is_available() => {
+                // SAFETY: AVX2, FMA, AVX-512F and AVX-512VL are present (checked above or when
+                // `bvh.backend` was chosen).
+                unsafe {
+                    if fast {
+                        x86::$avx512_fast(bvh, $ray, $stats)
+                    } else {
+                        x86::$avx512(bvh, $ray, $stats)
+                    }
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Backend::Avx2 if backend == bvh.backend || Backend::Avx2.is_available() => {
+                // SAFETY: AVX2 and FMA are present (checked above or when `bvh.backend` was
+                // chosen).
+                unsafe {
+                    if fast {
+                        x86::$avx2_fast(bvh, $ray, $stats)
+                    } else {
+                        x86::$avx2(bvh, $ray, $stats)
+                    }
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: SSE2 is part of x86-64.
+            Backend::Sse2 => unsafe {
+                if fast {
+                    x86::$sse2_fast(bvh, $ray, $stats)
+                } else {
+                    x86::$sse2(bvh, $ray, $stats)
+                }
+            },
+            _ if fast => portable::$portable::<W, S, true>(bvh, $ray, $stats),
+            _ => portable::$portable::<W, S, false>(bvh, $ray, $stats),
+        }
+    }};
+}
+
 impl<const W: usize> WideBvh<W> {
     /// Collapses a binary BVH built over `tris` into a `W`-wide one (see the
     /// [module documentation](self) for the strategy). The triangles are copied into the leaf
@@ -338,44 +389,16 @@ impl<const W: usize> WideBvh<W> {
         ray: &Ray,
         stats: &mut S,
     ) -> Hit {
-        let fast = self.precision == Precision::Fast;
-        match backend {
-            #[cfg(target_arch = "x86_64")]
-            Backend::Avx512 if backend == self.backend || Backend::Avx512.is_available() => {
-                // SAFETY: AVX2, FMA, AVX-512F and AVX-512VL are present (checked above or when
-                // `self.backend` was chosen).
-                unsafe {
-                    if fast {
-                        x86::closest_hit_avx512_fast(self, ray, stats)
-                    } else {
-                        x86::closest_hit_avx512(self, ray, stats)
-                    }
-                }
-            }
-            #[cfg(target_arch = "x86_64")]
-            Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
-                // SAFETY: AVX2 and FMA are present (checked above or when `self.backend` was
-                // chosen).
-                unsafe {
-                    if fast {
-                        x86::closest_hit_avx2_fast(self, ray, stats)
-                    } else {
-                        x86::closest_hit_avx2(self, ray, stats)
-                    }
-                }
-            }
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: SSE2 is part of x86-64.
-            Backend::Sse2 => unsafe {
-                if fast {
-                    x86::closest_hit_sse2_fast(self, ray, stats)
-                } else {
-                    x86::closest_hit_sse2(self, ray, stats)
-                }
-            },
-            _ if fast => portable::closest_hit::<W, S, true>(self, ray, stats),
-            _ => portable::closest_hit::<W, S, false>(self, ray, stats),
-        }
+        dispatch!(
+            self,
+            backend,
+            ray,
+            stats,
+            [closest_hit_avx512, closest_hit_avx512_fast],
+            [closest_hit_avx2, closest_hit_avx2_fast],
+            [closest_hit_sse2, closest_hit_sse2_fast],
+            closest_hit
+        )
     }
 
     /// Any hit with a chosen backend; a backend this CPU lacks falls back to
@@ -387,42 +410,16 @@ impl<const W: usize> WideBvh<W> {
         ray: &Ray,
         stats: &mut S,
     ) -> bool {
-        let fast = self.precision == Precision::Fast;
-        match backend {
-            #[cfg(target_arch = "x86_64")]
-            Backend::Avx512 if backend == self.backend || Backend::Avx512.is_available() => {
-                // SAFETY: as in `closest_hit_with`.
-                unsafe {
-                    if fast {
-                        x86::any_hit_avx512_fast(self, ray, stats)
-                    } else {
-                        x86::any_hit_avx512(self, ray, stats)
-                    }
-                }
-            }
-            #[cfg(target_arch = "x86_64")]
-            Backend::Avx2 if backend == self.backend || Backend::Avx2.is_available() => {
-                // SAFETY: as in `closest_hit_with`.
-                unsafe {
-                    if fast {
-                        x86::any_hit_avx2_fast(self, ray, stats)
-                    } else {
-                        x86::any_hit_avx2(self, ray, stats)
-                    }
-                }
-            }
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: SSE2 is part of x86-64.
-            Backend::Sse2 => unsafe {
-                if fast {
-                    x86::any_hit_sse2_fast(self, ray, stats)
-                } else {
-                    x86::any_hit_sse2(self, ray, stats)
-                }
-            },
-            _ if fast => portable::any_hit::<W, S, true>(self, ray, stats),
-            _ => portable::any_hit::<W, S, false>(self, ray, stats),
-        }
+        dispatch!(
+            self,
+            backend,
+            ray,
+            stats,
+            [any_hit_avx512, any_hit_avx512_fast],
+            [any_hit_avx2, any_hit_avx2_fast],
+            [any_hit_sse2, any_hit_sse2_fast],
+            any_hit
+        )
     }
 
     /// The backend [`WideBvh::closest_hit`] and [`WideBvh::any_hit`] use:

@@ -99,31 +99,8 @@ pub(crate) fn closest_hit<const W: usize, S: TraversalStats, const FAST: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Hit {
-    // SAFETY: the portable kernel needs no CPU feature.
-    unsafe {
-        match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
-            (true, false) => kernel::closest_hit::<Scalar<FAST>, W, S, _, false>(
-                bvh,
-                ray,
-                stats,
-                &mut FixedStack::new(&mut FixedStack::buffer()),
-            ),
-            (true, true) => kernel::closest_hit::<Scalar<FAST>, W, S, _, true>(
-                bvh,
-                ray,
-                stats,
-                &mut FixedStack::new(&mut FixedStack::buffer()),
-            ),
-            (false, neg) => {
-                let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-                if neg {
-                    kernel::closest_hit::<Scalar<FAST>, W, S, _, true>(bvh, ray, stats, &mut st)
-                } else {
-                    kernel::closest_hit::<Scalar<FAST>, W, S, _, false>(bvh, ray, stats, &mut st)
-                }
-            }
-        }
-    }
+    // The portable kernel needs no CPU feature.
+    slow_path!(kernel::closest_hit, Scalar<FAST>, bvh, ray, stats)
 }
 
 pub(crate) fn any_hit<const W: usize, S: TraversalStats, const FAST: bool>(
@@ -131,29 +108,6 @@ pub(crate) fn any_hit<const W: usize, S: TraversalStats, const FAST: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> bool {
-    // SAFETY: as in `closest_hit`.
-    unsafe {
-        match (bvh.max_stack <= FIXED_STACK, ray.tmin < 0.0) {
-            (true, false) => kernel::any_hit::<Scalar<FAST>, W, S, _, false>(
-                bvh,
-                ray,
-                stats,
-                &mut FixedStack::new(&mut FixedStack::buffer()),
-            ),
-            (true, true) => kernel::any_hit::<Scalar<FAST>, W, S, _, true>(
-                bvh,
-                ray,
-                stats,
-                &mut FixedStack::new(&mut FixedStack::buffer()),
-            ),
-            (false, neg) => {
-                let mut st = VecStack(Vec::with_capacity(bvh.max_stack));
-                if neg {
-                    kernel::any_hit::<Scalar<FAST>, W, S, _, true>(bvh, ray, stats, &mut st)
-                } else {
-                    kernel::any_hit::<Scalar<FAST>, W, S, _, false>(bvh, ray, stats, &mut st)
-                }
-            }
-        }
-    }
+    // The portable kernel needs no CPU feature.
+    slow_path!(kernel::any_hit, Scalar<FAST>, bvh, ray, stats)
 }

@@ -297,27 +297,7 @@ macro_rules! entry_points {
             ray: &Ray,
             stats: &mut S,
         ) -> Hit {
-            let neg = ray.tmin < 0.0;
-            // SAFETY: the caller guarantees the CPU features; `FixedStack` only when the
-            // bound fits.
-            #[allow(unused_unsafe)]
-            unsafe {
-                if bvh.max_stack <= FIXED_STACK {
-                    let mut buf = FixedStack::buffer();
-                    let st = &mut FixedStack::new(&mut buf);
-                    return if neg {
-                        kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
-                    } else {
-                        kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
-                    };
-                }
-                let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
-                if neg {
-                    kernel::closest_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
-                } else {
-                    kernel::closest_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
-                }
-            }
+            slow_path!(kernel::closest_hit, $kernel, bvh, ray, stats)
         }
 
         #[inline(never)]
@@ -327,26 +307,7 @@ macro_rules! entry_points {
             ray: &Ray,
             stats: &mut S,
         ) -> bool {
-            let neg = ray.tmin < 0.0;
-            // SAFETY: as above.
-            #[allow(unused_unsafe)]
-            unsafe {
-                if bvh.max_stack <= FIXED_STACK {
-                    let mut buf = FixedStack::buffer();
-                    let st = &mut FixedStack::new(&mut buf);
-                    return if neg {
-                        kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
-                    } else {
-                        kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
-                    };
-                }
-                let st = &mut VecStack(Vec::with_capacity(bvh.max_stack));
-                if neg {
-                    kernel::any_hit::<$kernel, W, S, _, true>(bvh, ray, stats, st)
-                } else {
-                    kernel::any_hit::<$kernel, W, S, _, false>(bvh, ray, stats, st)
-                }
-            }
+            slow_path!(kernel::any_hit, $kernel, bvh, ray, stats)
         }
     };
 }
