@@ -97,10 +97,23 @@ pub fn decode_hits(bytes: &[u8]) -> Option<Vec<Hit>> {
     )
 }
 
-fn read_file(path: &Path) -> Result<Vec<u8>, TraceError> {
-    std::fs::read(path).map_err(|source| TraceError::Io {
+/// Reads the file at `path` and decodes its records of `record` bytes each (`what` names them
+/// in a [`TraceError::BadLength`]).
+fn read_records<T>(
+    path: &Path,
+    decode: fn(&[u8]) -> Option<Vec<T>>,
+    record: usize,
+    what: &'static str,
+) -> Result<Vec<T>, TraceError> {
+    let bytes = std::fs::read(path).map_err(|source| TraceError::Io {
         path: path.to_path_buf(),
         source,
+    })?;
+    decode(&bytes).ok_or_else(|| TraceError::BadLength {
+        path: path.to_path_buf(),
+        len: bytes.len() as u64,
+        record,
+        what,
     })
 }
 
@@ -114,15 +127,6 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), TraceError> {
     f.flush().map_err(io)
 }
 
-fn bad_length(path: &Path, len: usize, record: usize, what: &'static str) -> TraceError {
-    TraceError::BadLength {
-        path: path.to_path_buf(),
-        len: len as u64,
-        record,
-        what,
-    }
-}
-
 /// Reads a ray file.
 ///
 /// # Errors
@@ -130,9 +134,7 @@ fn bad_length(path: &Path, len: usize, record: usize, what: &'static str) -> Tra
 /// [`TraceError::Io`] when the file cannot be read, [`TraceError::BadLength`] when its length
 /// is not a multiple of 32 bytes.
 pub fn read_rays(path: impl AsRef<Path>) -> Result<Vec<Ray>, TraceError> {
-    let path = path.as_ref();
-    let bytes = read_file(path)?;
-    decode_rays(&bytes).ok_or_else(|| bad_length(path, bytes.len(), RAY_RECORD_BYTES, "ray"))
+    read_records(path.as_ref(), decode_rays, RAY_RECORD_BYTES, "ray")
 }
 
 /// Writes a ray file (created or truncated).
@@ -151,9 +153,7 @@ pub fn write_rays(path: impl AsRef<Path>, rays: &[Ray]) -> Result<(), TraceError
 /// [`TraceError::Io`] when the file cannot be read, [`TraceError::BadLength`] when its length
 /// is not a multiple of 16 bytes.
 pub fn read_hits(path: impl AsRef<Path>) -> Result<Vec<Hit>, TraceError> {
-    let path = path.as_ref();
-    let bytes = read_file(path)?;
-    decode_hits(&bytes).ok_or_else(|| bad_length(path, bytes.len(), HIT_RECORD_BYTES, "hit"))
+    read_records(path.as_ref(), decode_hits, HIT_RECORD_BYTES, "hit")
 }
 
 /// Writes a hit file (created or truncated).
