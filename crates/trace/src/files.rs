@@ -47,23 +47,15 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
 /// The rays of a ray file's bytes, or `None` when the length is not a multiple of
 /// [`RAY_RECORD_BYTES`].
 pub fn decode_rays(bytes: &[u8]) -> Option<Vec<Ray>> {
-    if !bytes.len().is_multiple_of(RAY_RECORD_BYTES) {
-        return None;
-    }
-    Some(
-        bytes
-            .chunks_exact(RAY_RECORD_BYTES)
-            .map(|b| {
-                let f = |i| f32_at(b, i);
-                Ray::new(
-                    Vec3A::new(f(0), f(1), f(2)),
-                    Vec3A::new(f(4), f(5), f(6)),
-                    f(3),
-                    f(7),
-                )
-            })
-            .collect(),
-    )
+    decode(bytes, RAY_RECORD_BYTES, |b| {
+        let f = |i| f32_at(b, i);
+        Ray::new(
+            Vec3A::new(f(0), f(1), f(2)),
+            Vec3A::new(f(4), f(5), f(6)),
+            f(3),
+            f(7),
+        )
+    })
 }
 
 /// The bytes of a hit file holding `hits`.
@@ -81,20 +73,21 @@ pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
 /// The hits of a hit file's bytes, or `None` when the length is not a multiple of
 /// [`HIT_RECORD_BYTES`].
 pub fn decode_hits(bytes: &[u8]) -> Option<Vec<Hit>> {
-    if !bytes.len().is_multiple_of(HIT_RECORD_BYTES) {
+    decode(bytes, HIT_RECORD_BYTES, |b| Hit {
+        t: f32_at(b, 0),
+        prim: u32_at(b, 1),
+        u: f32_at(b, 2),
+        v: f32_at(b, 3),
+    })
+}
+
+/// `f` of every record of `record` bytes, or `None` when the length of `bytes` is not a
+/// multiple of `record`.
+fn decode<T>(bytes: &[u8], record: usize, f: impl Fn(&[u8]) -> T) -> Option<Vec<T>> {
+    if !bytes.len().is_multiple_of(record) {
         return None;
     }
-    Some(
-        bytes
-            .chunks_exact(HIT_RECORD_BYTES)
-            .map(|b| Hit {
-                t: f32_at(b, 0),
-                prim: u32_at(b, 1),
-                u: f32_at(b, 2),
-                v: f32_at(b, 3),
-            })
-            .collect(),
-    )
+    Some(bytes.chunks_exact(record).map(f).collect())
 }
 
 /// Reads the file at `path` and decodes its records of `record` bytes each (`what` names them
