@@ -249,12 +249,10 @@ fn against_sweep(
             },
         };
         let base = measure(&name, "sweep", sweep.as_ref(), &tris, epo, None)?;
-        out.row(&base)?;
-        rows.push(base.clone());
+        out.keep(&mut rows, base.clone())?;
         for (label, b) in configs {
             let row = measure(&name, label, b.as_ref(), &tris, epo, Some(&base))?;
-            out.row(&row)?;
-            rows.push(row);
+            out.keep(&mut rows, row)?;
         }
     }
     Ok(rows)
