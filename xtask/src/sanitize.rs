@@ -38,13 +38,9 @@ fn run_short(args: &Args) -> anyhow::Result<()> {
     eprintln!(
         "== address sanitizer (short form, stable toolchain): sahara-traverse, sahara-builders"
     );
-    let t0 = std::time::Instant::now();
-    let mut cmd = Command::new("cargo");
+    let mut cmd = cargo_test(None, &target, "address", "target/sanitize-short");
     cmd.args([
-        "test",
         "--locked",
-        "--target",
-        &target,
         "--profile",
         "test",
         "-p",
@@ -55,20 +51,46 @@ fn run_short(args: &Args) -> anyhow::Result<()> {
         "--test",
         "miri",
     ])
-    .env("RUSTC_BOOTSTRAP", "1")
-    .env(
-        "RUSTFLAGS",
-        "-Zsanitizer=address -Cforce-frame-pointers=yes",
-    )
-    .env("CARGO_TARGET_DIR", "target/sanitize-short")
-    .env("ASAN_OPTIONS", ASAN_OPTIONS);
-    if !args.test_args.is_empty() {
-        cmd.arg("--").args(&args.test_args);
-    }
-    let status = cmd.status().context("running cargo test")?;
-    let ok = crate::util::report_status(status, t0, "address sanitizer (short form)");
+    .env("RUSTC_BOOTSTRAP", "1");
+    let ok = run_tests(
+        &mut cmd,
+        &args.test_args,
+        "running cargo test",
+        "address sanitizer (short form)",
+    )?;
     ensure!(ok, "the short AddressSanitizer run failed");
     Ok(())
+}
+
+/// `cargo [toolchain] test --target target` with the RUSTFLAGS of `sanitizer`, its own target
+/// directory `target_dir` and [`ASAN_OPTIONS`].
+fn cargo_test(toolchain: Option<&str>, target: &str, sanitizer: &str, target_dir: &str) -> Command {
+    let mut cmd = Command::new("cargo");
+    cmd.args(toolchain)
+        .args(["test", "--target", target])
+        .env(
+            "RUSTFLAGS",
+            format!("-Zsanitizer={sanitizer} -Cforce-frame-pointers=yes"),
+        )
+        .env("CARGO_TARGET_DIR", target_dir)
+        .env("ASAN_OPTIONS", ASAN_OPTIONS);
+    cmd
+}
+
+/// Runs `cmd` with `test_args` passed to the test binaries, and reports its time and status
+/// as `what` (`running` is the context of a failure to start it); true when it passed.
+fn run_tests(
+    cmd: &mut Command,
+    test_args: &[String],
+    running: &'static str,
+    what: &str,
+) -> anyhow::Result<bool> {
+    let t0 = std::time::Instant::now();
+    if !test_args.is_empty() {
+        cmd.arg("--").args(test_args);
+    }
+    let status = cmd.status().context(running)?;
+    Ok(crate::util::report_status(status, t0, what))
 }
 
 /// The packages whose test suites run under the sanitizers: the ones with unsafe code and the
@@ -111,33 +133,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         for &package in &packages {
             eprintln!("== {sanitizer} sanitizer: {package}");
-            let t0 = std::time::Instant::now();
-            let mut cmd = Command::new("cargo");
-            cmd.args([
-                "+nightly",
-                "test",
-                "-Zbuild-std",
-                "--target",
-                &target,
-                "-p",
-                package,
-                "--lib",
-                "--tests",
-            ])
-            .env(
-                "RUSTFLAGS",
-                format!("-Zsanitizer={sanitizer} -Cforce-frame-pointers=yes"),
-            )
-            .env("RUSTDOCFLAGS", format!("-Zsanitizer={sanitizer}"))
             // One directory per sanitizer: the instrumented standard library is rebuilt once.
-            .env("CARGO_TARGET_DIR", format!("target/sanitize-{sanitizer}"))
-            .env("ASAN_OPTIONS", ASAN_OPTIONS)
-            .env("TSAN_OPTIONS", "halt_on_error=1");
-            if !args.test_args.is_empty() {
-                cmd.arg("--").args(&args.test_args);
-            }
-            let status = cmd.status().context("running cargo +nightly test")?;
-            if !crate::util::report_status(status, t0, &format!("{sanitizer}: {package}")) {
+            let dir = format!("target/sanitize-{sanitizer}");
+            let mut cmd = cargo_test(Some("+nightly"), &target, sanitizer, &dir);
+            cmd.args(["-Zbuild-std", "-p", package, "--lib", "--tests"])
+                .env("RUSTDOCFLAGS", format!("-Zsanitizer={sanitizer}"))
+                .env("TSAN_OPTIONS", "halt_on_error=1");
+            let what = format!("{sanitizer}: {package}");
+            if !run_tests(
+                &mut cmd,
+                &args.test_args,
+                "running cargo +nightly test",
+                &what,
+            )? {
                 failed.push(format!("{package} ({sanitizer})"));
             }
         }
@@ -170,7 +178,35 @@ fn host_target(toolchain: Option<&str>) -> anyhow::Result<String> {
 
 #[cfg(test)]
 mod tests {
-    use super::selected;
+    use super::{cargo_test, selected, ASAN_OPTIONS};
+
+    #[test]
+    fn cargo_test_sets_the_sanitizer_flags() {
+        let cmd = cargo_test(
+            Some("+nightly"),
+            "x86_64-unknown-linux-gnu",
+            "thread",
+            "t/s",
+        );
+        let args: Vec<&str> = cmd.get_args().map(|a| a.to_str().unwrap()).collect();
+        assert_eq!(
+            args,
+            ["+nightly", "test", "--target", "x86_64-unknown-linux-gnu"]
+        );
+        let env = |key: &str| {
+            cmd.get_envs()
+                .find(|(k, _)| *k == key)
+                .and_then(|(_, v)| v?.to_str())
+        };
+        assert_eq!(
+            env("RUSTFLAGS"),
+            Some("-Zsanitizer=thread -Cforce-frame-pointers=yes")
+        );
+        assert_eq!(env("CARGO_TARGET_DIR"), Some("t/s"));
+        assert_eq!(env("ASAN_OPTIONS"), Some(ASAN_OPTIONS));
+        let stable = cargo_test(None, "x", "address", "d");
+        assert_eq!(stable.get_args().count(), 3);
+    }
 
     #[test]
     fn only_takes_an_exact_name_before_a_part_of_one() {

@@ -40,6 +40,32 @@ pub struct Entry {
     pub make: fn() -> Box<dyn Builder>,
 }
 
+impl Entry {
+    /// The entry `name` of a builder of whole triangles (not spatial) practical at every size,
+    /// made by `make`; other presets change those fields (`Entry { spatial: true,
+    /// ..Entry::new(..) }`).
+    ///
+    /// ```
+    /// use sahara_builders::registry::Entry;
+    /// use sahara_builders::sweep::SweepBuilder;
+    /// use sahara_builders::Builder;
+    ///
+    /// let e = Entry::new("sweep", "full-sweep SAH", || Box::new(SweepBuilder::default()));
+    /// assert!(!e.spatial && !e.small_inputs_only && e.max_practical_triangles.is_none());
+    /// assert_eq!((e.make)().name(), "sweep");
+    /// ```
+    pub fn new(name: &'static str, summary: &'static str, make: fn() -> Box<dyn Builder>) -> Self {
+        Entry {
+            name,
+            summary,
+            spatial: false,
+            small_inputs_only: false,
+            max_practical_triangles: None,
+            make,
+        }
+    }
+}
+
 /// Why [`register`] refused an entry.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum RegistryError {
@@ -91,45 +117,33 @@ pub fn entries() -> Vec<Entry> {
     v
 }
 
-/// A preset of whole triangles (not spatial), practical at every size.
-fn preset(name: &'static str, summary: &'static str, make: fn() -> Box<dyn Builder>) -> Entry {
-    Entry {
-        name,
-        summary,
-        spatial: false,
-        small_inputs_only: false,
-        max_practical_triangles: None,
-        make,
-    }
-}
-
 /// The built-in presets, in the order of every listing.
 fn built_in() -> Vec<Entry> {
     vec![
         // Binned SAH (`binned`).
-        preset(
+        Entry::new(
             "binned",
             "binned SAH (Wald 2007), 32 centroid bins per axis, leaves <= 8",
             || Box::new(BinnedBuilder::named("binned", BinnedConfig::DEFAULT)),
         ),
-        preset(
+        Entry::new(
             "binned-8",
             "binned SAH with 8 bins per axis (fastest)",
             || Box::new(BinnedBuilder::named("binned-8", BinnedConfig::FAST)),
         ),
-        preset(
+        Entry::new(
             "binned-128",
             "binned SAH with 128 bins per axis",
             || Box::new(BinnedBuilder::named("binned-128", BinnedConfig::FINE)),
         ),
         // Full-sweep SAH (`sweep`).
-        preset(
+        Entry::new(
             "cluster-binned",
             "binned SAH (8 bins) over Morton clusters of <= 32 triangles, then inside them \
              (nodes of <= 4 triangles are leaves): the quick build for per-frame rebuilds",
             || Box::new(ClusterBinnedBuilder::new(ClusterBinnedConfig::DEFAULT)),
         ),
-        preset(
+        Entry::new(
             "sweep",
             "full-sweep SAH (MacDonald & Booth 1990), the reference greedy builder",
             || Box::new(SweepBuilder::default()),
@@ -137,7 +151,7 @@ fn built_in() -> Vec<Entry> {
         // SBVH (`sbvh`).
         Entry {
             spatial: true,
-            ..preset(
+            ..Entry::new(
                 "sbvh",
                 "SBVH (Stich et al. 2009): full-sweep object splits + 128-bin spatial splits",
                 || Box::new(SbvhBuilder::new(SbvhConfig::DEFAULT)),
@@ -145,7 +159,7 @@ fn built_in() -> Vec<Entry> {
         },
         Entry {
             spatial: true,
-            ..preset(
+            ..Entry::new(
                 "sbvh-refined",
                 "SBVH with spatial splits searched coarse to fine (16 bins refined to 128)",
                 || Box::new(SbvhBuilder::named("sbvh-refined", SbvhConfig::REFINED)),
@@ -153,7 +167,7 @@ fn built_in() -> Vec<Entry> {
         },
         Entry {
             spatial: true,
-            ..preset(
+            ..Entry::new(
                 "sbvh-fast",
                 "SBVH at Embree HIGH's pace: 32-bin object and spatial splits, spatial splits \
                       only where the object split's sides overlap by 20% of their areas",
@@ -162,7 +176,7 @@ fn built_in() -> Vec<Entry> {
         },
         Entry {
             spatial: true,
-            ..preset(
+            ..Entry::new(
                 "spatial-binned",
                 "binned SAH with spatial splits, in place (the design of Embree's spatial \
                  builder): 32 object bins, 16 estimated spatial bins where the object split's \
@@ -175,18 +189,18 @@ fn built_in() -> Vec<Entry> {
             small_inputs_only: true,
             // O(N^2.2) measured: 1.3 s at 1000, 6.1 s at 2000, 29 s at 4000 soup triangles.
             max_practical_triangles: Some(5_000),
-            ..preset(
+            ..Entry::new(
                 "tsah-exhaustive",
                 "temporary-subtree SAH (Wodniok & Goesele), every sweep candidate rated: reference, small inputs only",
                 || Box::new(TsahBuilder::named("tsah-exhaustive", TsahConfig::EXHAUSTIVE)),
             )
         },
-        preset(
+        Entry::new(
             "tsah-topk",
             "temporary-subtree SAH (Wodniok & Goesele), top-k sweep candidates, sweep temporaries: O(N log^2 N)",
             || Box::new(TsahBuilder::named("tsah-topk", TsahConfig::TOP_K)),
         ),
-        preset(
+        Entry::new(
             "tsah-binned",
             "temporary-subtree SAH (Wodniok & Goesele), binned candidates and binned temporaries: the fastest variant",
             || Box::new(TsahBuilder::named("tsah-binned", TsahConfig::BINNED)),
@@ -194,7 +208,7 @@ fn built_in() -> Vec<Entry> {
         // Their spatial-split variant (`tsah_spatial`).
         Entry {
             spatial: true,
-            ..preset(
+            ..Entry::new(
                 "tsah-sbvh",
                 "temporary-subtree SAH with spatial splits: 4 object + 4 spatial candidates \
                   rated by cost-only SBVH-like temporaries (estimated spatial search)",
@@ -207,7 +221,7 @@ fn built_in() -> Vec<Entry> {
             // tsah-sbvh; the time grows slightly faster than linearly, so 150k triangles is near
             // the one-minute mark the study's presets are held to.
             max_practical_triangles: Some(150_000),
-            ..preset(
+            ..Entry::new(
                 "tsah-sbvh-exact",
                 "the paper's spatial variant: tsah-sbvh with exact SBVH temporaries \
                   (SAH never above sbvh's; about 4x tsah-sbvh's time)",
@@ -220,23 +234,23 @@ fn built_in() -> Vec<Entry> {
             )
         },
         // Look-ahead SAH and the hybrid (`popov`).
-        preset(
+        Entry::new(
             "popov-d2",
             "look-ahead SAH after Popov et al. 2009: depth 2, top-8 per level, frontier as leaves",
             || Box::new(PopovBuilder::named("popov-d2", PopovConfig::D2)),
         ),
-        preset(
+        Entry::new(
             "popov-d3",
             "look-ahead SAH after Popov et al. 2009: depth 3, top-4 per level, frontier as leaves",
             || Box::new(PopovBuilder::named("popov-d3", PopovConfig::D3)),
         ),
-        preset(
+        Entry::new(
             "hybrid",
             "look-ahead SAH (depth 2, best split per axis) with frontier nodes costed by temporary sweep subtrees (Popov et al. + Wodniok & Goesele)",
             || Box::new(PopovBuilder::named("hybrid", PopovConfig::HYBRID)),
         ),
         // Top-down builders followed by the thorough reinsertion (`reinsert`).
-        preset(
+        Entry::new(
             "sweep+reinsert",
             "full-sweep SAH, then reinsertion (Meister & Bittner 2018)",
             || {
@@ -251,7 +265,7 @@ fn built_in() -> Vec<Entry> {
         ),
         Entry {
             spatial: true,
-            ..preset(
+            ..Entry::new(
                 "sbvh+reinsert",
                 "SBVH, then reinsertion (Meister & Bittner 2018)",
                 || {
@@ -265,7 +279,7 @@ fn built_in() -> Vec<Entry> {
                 },
             )
         },
-        preset(
+        Entry::new(
             "tsah-topk+reinsert",
             "temporary-subtree SAH (top-k), then reinsertion (Meister & Bittner 2018)",
             || {
@@ -279,12 +293,12 @@ fn built_in() -> Vec<Entry> {
             },
         ),
         // PLOC, alone and with the light reinsertion budget (`ploc`).
-        preset(
+        Entry::new(
             "ploc",
             "PLOC (Meister & Bittner 2018): parallel locally-ordered clustering, radius 16",
             || Box::new(PlocBuilder::default()),
         ),
-        preset(
+        Entry::new(
             "ploc+reinsert",
             "PLOC, then reinsertion with the light budget",
             || {

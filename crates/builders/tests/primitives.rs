@@ -159,14 +159,9 @@ fn a_callback_that_clips_triangles_builds_what_sbvh_builds() {
 
 #[test]
 fn registration_checks_names() {
-    let mismatch = Entry {
-        name: "not-sweep",
-        summary: "a sweep builder under the wrong name",
-        spatial: false,
-        small_inputs_only: false,
-        max_practical_triangles: None,
-        make: || Box::new(SweepBuilder::default()),
-    };
+    let mismatch = Entry::new("not-sweep", "a sweep builder under the wrong name", || {
+        Box::new(SweepBuilder::default())
+    });
     assert_eq!(
         registry::register(mismatch),
         Err(RegistryError::NameMismatch {
@@ -174,26 +169,18 @@ fn registration_checks_names() {
             builder: "sweep".into()
         })
     );
-    let taken = Entry {
-        name: "sweep",
-        summary: "a second sweep",
-        spatial: false,
-        small_inputs_only: false,
-        max_practical_triangles: None,
-        make: || Box::new(SweepBuilder::default()),
-    };
+    let taken = Entry::new("sweep", "a second sweep", || {
+        Box::new(SweepBuilder::default())
+    });
     assert_eq!(
         registry::register(taken),
         Err(RegistryError::Duplicate("sweep".into()))
     );
-    let renamed = Entry {
-        name: "sweep-again",
-        summary: "the sweep builder under another name",
-        spatial: false,
-        small_inputs_only: false,
-        max_practical_triangles: None,
-        make: || Box::new(SweepBuilder::named("sweep-again", Default::default())),
-    };
+    let renamed = Entry::new(
+        "sweep-again",
+        "the sweep builder under another name",
+        || Box::new(SweepBuilder::named("sweep-again", Default::default())),
+    );
     registry::register(renamed).unwrap();
     assert!(registry::names().contains(&"sweep-again"));
     assert_eq!(

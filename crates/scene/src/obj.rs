@@ -477,6 +477,14 @@ mod tests {
         parse_obj(s.as_bytes(), Path::new("t.obj"))
     }
 
+    /// Asserts that `e` reports a non-finite coordinate of vertex `vertex`.
+    fn assert_non_finite(e: &SceneError, vertex: usize) {
+        assert!(
+            matches!(e, SceneError::NonFinite { vertex_index, .. } if *vertex_index == vertex),
+            "{e}"
+        );
+    }
+
     #[test]
     fn polygons_slashes_negative_and_continuations() {
         let m = parse(
@@ -517,16 +525,7 @@ mod tests {
         let e = parse("v 0 0 0\nf 1 1 99999999999999999999999\n").unwrap_err();
         assert!(matches!(e, SceneError::IndexOutOfRange { .. }), "{e}");
         let e = parse("v 0 0 0\nv inf 0 0\nf 1 2 1\n").unwrap_err();
-        assert!(
-            matches!(
-                e,
-                SceneError::NonFinite {
-                    vertex_index: 1,
-                    ..
-                }
-            ),
-            "{e}"
-        );
+        assert_non_finite(&e, 1);
         assert!(matches!(
             parse("# nothing\n"),
             Err(SceneError::Empty { .. })
@@ -561,32 +560,14 @@ mod tests {
         let e = parse("v 0 0 0 1 1\n").unwrap_err().to_string();
         assert!(e.contains("line 1") && e.contains("5 values"), "{e}");
         let e = parse("v 1e30 0 0 1e-30\nf 1 1 1\n").unwrap_err();
-        assert!(
-            matches!(
-                e,
-                SceneError::NonFinite {
-                    vertex_index: 0,
-                    ..
-                }
-            ),
-            "{e}"
-        );
+        assert_non_finite(&e, 0);
         // Unreferenced vertices are checked too, including overflowing plain decimals.
         let long = format!(
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nv {}0 0 0\nf 1 2 3\n",
             "9".repeat(39)
         );
         let e = parse(&long).unwrap_err();
-        assert!(
-            matches!(
-                e,
-                SceneError::NonFinite {
-                    vertex_index: 3,
-                    ..
-                }
-            ),
-            "{e}"
-        );
+        assert_non_finite(&e, 3);
         let e = parse("v 0 0 0\nv 1.2.3 0 0\nf 1 1 1\n")
             .unwrap_err()
             .to_string();

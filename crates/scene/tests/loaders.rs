@@ -19,62 +19,64 @@ fn write(dir: &Path, name: &str, data: &[u8]) -> std::path::PathBuf {
     p
 }
 
+/// The error of loading `data` written to `dir/name`.
+fn load_error(dir: &Path, name: &str, data: &[u8]) -> SceneError {
+    load_mesh(write(dir, name, data)).unwrap_err()
+}
+
+/// The triangle, index and vertex count of a [`SceneError::IndexOutOfRange`].
+fn out_of_range(e: &SceneError) -> Option<(usize, i64, usize)> {
+    match *e {
+        SceneError::IndexOutOfRange {
+            triangle,
+            index,
+            vertex_count,
+            ..
+        } => Some((triangle, index, vertex_count)),
+        _ => None,
+    }
+}
+
+/// The vertex of a [`SceneError::NonFinite`].
+fn non_finite_vertex(e: &SceneError) -> Option<usize> {
+    match *e {
+        SceneError::NonFinite { vertex_index, .. } => Some(vertex_index),
+        _ => None,
+    }
+}
+
 #[test]
 fn malformed_obj_names_file_and_line() {
     let dir = temp_dir("malformed");
-    let p = write(
+    let e = load_error(
         &dir,
         "broken.obj",
         b"v 0 0 0\nv 1 0 0\nv 1 2 abc\nf 1 2 3\n",
     );
-    let e = load_mesh(&p).unwrap_err();
     assert!(matches!(e, SceneError::Parse { .. }), "{e:?}");
     let msg = e.to_string();
     assert!(msg.contains("broken.obj"), "{msg}");
     assert!(msg.contains("line 3") && msg.contains("abc"), "{msg}");
 
     // A face referencing vertices that do not exist.
-    let p = write(&dir, "missing.obj", b"v 0 0 0\nv 1 0 0\nf 1 2 3\n");
-    let e = load_mesh(&p).unwrap_err();
+    let e = load_error(&dir, "missing.obj", b"v 0 0 0\nv 1 0 0\nf 1 2 3\n");
     let msg = e.to_string();
-    assert!(
-        matches!(
-            e,
-            SceneError::IndexOutOfRange {
-                triangle: 0,
-                index: 3,
-                vertex_count: 2,
-                ..
-            }
-        ),
-        "{msg}"
-    );
+    assert_eq!(out_of_range(&e), Some((0, 3, 2)), "{msg}");
     assert!(
         msg.contains("missing.obj") && msg.contains("triangle 0"),
         "{msg}"
     );
 
     // A face with two vertices.
-    let p = write(&dir, "short.obj", b"v 0 0 0\nv 1 0 0\nf 1 2\n");
-    let msg = load_mesh(&p).unwrap_err().to_string();
+    let msg = load_error(&dir, "short.obj", b"v 0 0 0\nv 1 0 0\nf 1 2\n").to_string();
     assert!(msg.contains("short.obj") && msg.contains("line 3"), "{msg}");
 }
 
 #[test]
 fn nan_vertex_is_an_error() {
     let dir = temp_dir("nan");
-    let p = write(&dir, "nan.obj", b"v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n");
-    let e = load_mesh(&p).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            SceneError::NonFinite {
-                vertex_index: 2,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    let e = load_error(&dir, "nan.obj", b"v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n");
+    assert_eq!(non_finite_vertex(&e), Some(2), "{e:?}");
     let msg = e.to_string();
     assert!(msg.contains("nan.obj") && msg.contains("vertex 2") && msg.contains("non-finite"));
 }
@@ -82,25 +84,13 @@ fn nan_vertex_is_an_error() {
 #[test]
 fn out_of_range_index_is_an_error() {
     let dir = temp_dir("range");
-    let p = write(
+    let e = load_error(
         &dir,
         "range.obj",
         b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n",
     );
-    let e = load_mesh(&p).unwrap_err();
     let msg = e.to_string();
-    assert!(
-        matches!(
-            e,
-            SceneError::IndexOutOfRange {
-                triangle: 1,
-                index: 7,
-                vertex_count: 3,
-                ..
-            }
-        ),
-        "{msg}"
-    );
+    assert_eq!(out_of_range(&e), Some((1, 7, 3)), "{msg}");
     assert!(
         msg.contains("range.obj") && msg.contains("out of range"),
         "{msg}"
@@ -118,8 +108,7 @@ fn obj_gz_round_trip() {
     let s = Scene::from_file(&p).unwrap();
     assert_eq!(s.name, "quad");
     assert_eq!(s.triangle_count(), 2);
-    let p = write(&dir, "bad.obj.gz", b"\x1f\x8b\x08garbage");
-    let msg = load_mesh(&p).unwrap_err().to_string();
+    let msg = load_error(&dir, "bad.obj.gz", b"\x1f\x8b\x08garbage").to_string();
     assert!(msg.contains("bad.obj.gz") && msg.contains("gzip"), "{msg}");
 }
 
@@ -184,18 +173,7 @@ fn gltf_errors_name_the_element() {
         None,
     )
     .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            SceneError::IndexOutOfRange {
-                triangle: 0,
-                index: 5,
-                vertex_count: 3,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert_eq!(out_of_range(&e), Some((0, 5, 3)), "{e:?}");
     // NaN coordinate.
     let mut t = TRI;
     t[1][2] = f32::NAN;
@@ -205,16 +183,7 @@ fn gltf_errors_name_the_element() {
         None,
     )
     .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            SceneError::NonFinite {
-                vertex_index: 1,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert_eq!(non_finite_vertex(&e), Some(1), "{e:?}");
     // A buffer shorter than declared.
     let bin = triangle_bin(TRI, [0, 1, 2]);
     let msg = parse_gltf(&glb(&json, &bin[..20]), Path::new("short.glb"), None)
@@ -281,16 +250,14 @@ fn gltf_with_bad_external_uri_is_an_error() {
         r#"{"byteLength":44}"#,
         r#"{"byteLength":44,"uri":"%FF%FE.bin"}"#,
     );
-    let p = write(&dir, "uri.gltf", json.as_bytes());
-    let msg = load_mesh(&p).unwrap_err().to_string();
+    let msg = load_error(&dir, "uri.gltf", json.as_bytes()).to_string();
     assert!(msg.contains("uri.gltf"), "{msg}");
     // A missing external buffer.
     let json = triangle_json(r#"[{"mesh":0}]"#, true).replace(
         r#"{"byteLength":44}"#,
         r#"{"byteLength":44,"uri":"missing.bin"}"#,
     );
-    let p = write(&dir, "ext.gltf", json.as_bytes());
-    let msg = load_mesh(&p).unwrap_err().to_string();
+    let msg = load_error(&dir, "ext.gltf", json.as_bytes()).to_string();
     assert!(msg.contains("ext.gltf") && msg.contains("buffers"), "{msg}");
     // And a present one loads.
     std::fs::write(dir.join("tri.bin"), triangle_bin(TRI, [0, 1, 2])).unwrap();

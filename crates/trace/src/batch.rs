@@ -13,33 +13,38 @@ const MIN_RAYS_PER_TASK: usize = 64;
 /// The closest hit of every ray, in parallel (fast path: no counters). `result[i]` belongs to
 /// `rays[i]` whatever the number of threads.
 pub fn trace_closest<T: Tracer + ?Sized>(tracer: &T, rays: &[Ray]) -> Vec<Hit> {
-    let mut out = Vec::new();
-    trace_closest_into(tracer, rays, &mut out);
-    out
+    uncounted(rays, |r| tracer.closest_hit_fast(r))
 }
 
 /// [`trace_closest`] into a reused buffer (cleared, then filled with one hit per ray), so
 /// that timed passes do not allocate.
 pub fn trace_closest_into<T: Tracer + ?Sized>(tracer: &T, rays: &[Ray], out: &mut Vec<Hit>) {
-    rays.par_iter()
-        .with_min_len(MIN_RAYS_PER_TASK)
-        .map(|r| tracer.closest_hit_fast(r))
-        .collect_into_vec(out);
+    uncounted_into(rays, out, |r| tracer.closest_hit_fast(r))
 }
 
 /// The occlusion of every ray (any hit in `[tmin, tmax]`), in parallel, without counters.
 /// `result[i]` belongs to `rays[i]`.
 pub fn trace_any<T: Tracer + ?Sized>(tracer: &T, rays: &[Ray]) -> Vec<bool> {
-    let mut out = Vec::new();
-    trace_any_into(tracer, rays, &mut out);
-    out
+    uncounted(rays, |r| tracer.any_hit_fast(r))
 }
 
 /// [`trace_any`] into a reused buffer (cleared, then filled with one result per ray).
 pub fn trace_any_into<T: Tracer + ?Sized>(tracer: &T, rays: &[Ray], out: &mut Vec<bool>) {
+    uncounted_into(rays, out, |r| tracer.any_hit_fast(r))
+}
+
+/// `f` of every ray, in parallel, in the order of the rays.
+fn uncounted<R: Send>(rays: &[Ray], f: impl Fn(&Ray) -> R + Sync) -> Vec<R> {
+    let mut out = Vec::new();
+    uncounted_into(rays, &mut out, f);
+    out
+}
+
+/// [`uncounted`] into a reused buffer (cleared, then filled with one result per ray).
+fn uncounted_into<R: Send>(rays: &[Ray], out: &mut Vec<R>, f: impl Fn(&Ray) -> R + Sync) {
     rays.par_iter()
         .with_min_len(MIN_RAYS_PER_TASK)
-        .map(|r| tracer.any_hit_fast(r))
+        .map(&f)
         .collect_into_vec(out);
 }
 

@@ -47,23 +47,15 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
 /// The rays of a ray file's bytes, or `None` when the length is not a multiple of
 /// [`RAY_RECORD_BYTES`].
 pub fn decode_rays(bytes: &[u8]) -> Option<Vec<Ray>> {
-    if !bytes.len().is_multiple_of(RAY_RECORD_BYTES) {
-        return None;
-    }
-    Some(
-        bytes
-            .chunks_exact(RAY_RECORD_BYTES)
-            .map(|b| {
-                let f = |i| f32_at(b, i);
-                Ray::new(
-                    Vec3A::new(f(0), f(1), f(2)),
-                    Vec3A::new(f(4), f(5), f(6)),
-                    f(3),
-                    f(7),
-                )
-            })
-            .collect(),
-    )
+    decode(bytes, RAY_RECORD_BYTES, |b| {
+        let f = |i| f32_at(b, i);
+        Ray::new(
+            Vec3A::new(f(0), f(1), f(2)),
+            Vec3A::new(f(4), f(5), f(6)),
+            f(3),
+            f(7),
+        )
+    })
 }
 
 /// The bytes of a hit file holding `hits`.
@@ -81,26 +73,40 @@ pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
 /// The hits of a hit file's bytes, or `None` when the length is not a multiple of
 /// [`HIT_RECORD_BYTES`].
 pub fn decode_hits(bytes: &[u8]) -> Option<Vec<Hit>> {
-    if !bytes.len().is_multiple_of(HIT_RECORD_BYTES) {
-        return None;
-    }
-    Some(
-        bytes
-            .chunks_exact(HIT_RECORD_BYTES)
-            .map(|b| Hit {
-                t: f32_at(b, 0),
-                prim: u32_at(b, 1),
-                u: f32_at(b, 2),
-                v: f32_at(b, 3),
-            })
-            .collect(),
-    )
+    decode(bytes, HIT_RECORD_BYTES, |b| Hit {
+        t: f32_at(b, 0),
+        prim: u32_at(b, 1),
+        u: f32_at(b, 2),
+        v: f32_at(b, 3),
+    })
 }
 
-fn read_file(path: &Path) -> Result<Vec<u8>, TraceError> {
-    std::fs::read(path).map_err(|source| TraceError::Io {
+/// `f` of every record of `record` bytes, or `None` when the length of `bytes` is not a
+/// multiple of `record`.
+fn decode<T>(bytes: &[u8], record: usize, f: impl Fn(&[u8]) -> T) -> Option<Vec<T>> {
+    if !bytes.len().is_multiple_of(record) {
+        return None;
+    }
+    Some(bytes.chunks_exact(record).map(f).collect())
+}
+
+/// Reads the file at `path` and decodes its records of `record` bytes each (`what` names them
+/// in a [`TraceError::BadLength`]).
+fn read_records<T>(
+    path: &Path,
+    decode: fn(&[u8]) -> Option<Vec<T>>,
+    record: usize,
+    what: &'static str,
+) -> Result<Vec<T>, TraceError> {
+    let bytes = std::fs::read(path).map_err(|source| TraceError::Io {
         path: path.to_path_buf(),
         source,
+    })?;
+    decode(&bytes).ok_or_else(|| TraceError::BadLength {
+        path: path.to_path_buf(),
+        len: bytes.len() as u64,
+        record,
+        what,
     })
 }
 
@@ -114,15 +120,6 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), TraceError> {
     f.flush().map_err(io)
 }
 
-fn bad_length(path: &Path, len: usize, record: usize, what: &'static str) -> TraceError {
-    TraceError::BadLength {
-        path: path.to_path_buf(),
-        len: len as u64,
-        record,
-        what,
-    }
-}
-
 /// Reads a ray file.
 ///
 /// # Errors
@@ -130,9 +127,7 @@ fn bad_length(path: &Path, len: usize, record: usize, what: &'static str) -> Tra
 /// [`TraceError::Io`] when the file cannot be read, [`TraceError::BadLength`] when its length
 /// is not a multiple of 32 bytes.
 pub fn read_rays(path: impl AsRef<Path>) -> Result<Vec<Ray>, TraceError> {
-    let path = path.as_ref();
-    let bytes = read_file(path)?;
-    decode_rays(&bytes).ok_or_else(|| bad_length(path, bytes.len(), RAY_RECORD_BYTES, "ray"))
+    read_records(path.as_ref(), decode_rays, RAY_RECORD_BYTES, "ray")
 }
 
 /// Writes a ray file (created or truncated).
@@ -151,9 +146,7 @@ pub fn write_rays(path: impl AsRef<Path>, rays: &[Ray]) -> Result<(), TraceError
 /// [`TraceError::Io`] when the file cannot be read, [`TraceError::BadLength`] when its length
 /// is not a multiple of 16 bytes.
 pub fn read_hits(path: impl AsRef<Path>) -> Result<Vec<Hit>, TraceError> {
-    let path = path.as_ref();
-    let bytes = read_file(path)?;
-    decode_hits(&bytes).ok_or_else(|| bad_length(path, bytes.len(), HIT_RECORD_BYTES, "hit"))
+    read_records(path.as_ref(), decode_hits, HIT_RECORD_BYTES, "hit")
 }
 
 /// Writes a hit file (created or truncated).

@@ -16,7 +16,8 @@
 //!    largest scenes by default, see [`BRUTE_BUDGET`]), against the other builder's tree on
 //!    every ray (the hits cannot depend on the builder), and `any_hit == closest hit found` on
 //!    every ray;
-//! 4. collapses each tree into [`Bvh4`] and [`Bvh8`] and traces every ray with every
+//! 4. collapses each tree into [`Bvh4`](sahara_traverse::Bvh4) and
+//!    [`Bvh8`](sahara_traverse::Bvh8) and traces every ray with every
 //!    [`Backend`] this CPU runs, closest hit and any hit, and requires the reference's answer
 //!    bit for bit: `t`, `u`, `v` compared as bits, and `prim`.
 //!
@@ -34,7 +35,7 @@ use sahara_fixtures::scenes::{shared_scene_files, verify_all};
 use sahara_geom::{Ray, Triangle};
 use sahara_scene::{Catalog, Procedural, Scene};
 use sahara_trace::{Bvh2Tracer, Camera, RayKind, RaySet};
-use sahara_traverse::{brute, scalar, Backend, Bvh, Bvh4, Bvh8, Hit, NoStats, WideBvh};
+use sahara_traverse::{brute, scalar, Backend, Bvh, Hit, NoStats, WideBvh};
 use std::time::Instant;
 
 /// The builders whose trees are traced: the greedy SAH sweep, and the spatial-split builder
@@ -224,6 +225,22 @@ fn check_wide<const W: usize>(what: &str, wide: &WideBvh<W>, sets: &[Traced]) {
     }
 }
 
+/// Collapses `bvh` to its `W`-wide tree (timed in `time.collapse`) and checks that tree
+/// against the reference's answers `traced` (timed in `time.wide`); `what` names the scene and
+/// the builder.
+fn check_layout<const W: usize>(
+    what: &str,
+    bvh: &Bvh,
+    tris: &[Triangle],
+    traced: &[Traced],
+    time: &mut Phases,
+) {
+    let wide = timed(&mut time.collapse, || WideBvh::<W>::from_bvh(bvh, tris));
+    timed(&mut time.wide, || {
+        check_wide(&format!("{what}, layout bvh{W}"), &wide, traced)
+    });
+}
+
 /// Seconds spent in each phase of the check of a scene.
 #[derive(Default)]
 struct Phases {
@@ -307,23 +324,9 @@ fn check_scene(name: &str, scene: &Scene, load_seconds: f64) -> [usize; 3] {
             check_reference(&what, t, &brute[k], first.as_ref().map(|f| &f[k]));
         }
 
-        let wide4 = timed(&mut time.collapse, || Bvh4::from_bvh(&bvh, &tris));
-        timed(&mut time.wide, || {
-            check_wide(
-                &format!("{name}, builder {builder}, layout bvh4"),
-                &wide4,
-                &traced,
-            )
-        });
-        drop(wide4);
-        let wide8 = timed(&mut time.collapse, || Bvh8::from_bvh(&bvh, &tris));
-        timed(&mut time.wide, || {
-            check_wide(
-                &format!("{name}, builder {builder}, layout bvh8"),
-                &wide8,
-                &traced,
-            )
-        });
+        let tree = format!("{name}, builder {builder}");
+        check_layout::<4>(&tree, &bvh, &tris, &traced, &mut time);
+        check_layout::<8>(&tree, &bvh, &tris, &traced, &mut time);
 
         if first.is_none() {
             first = Some(traced);

@@ -50,6 +50,13 @@ fn scene() -> Vec<Triangle> {
     tris
 }
 
+/// The test scene and its median-split tree.
+fn scene_and_bvh() -> (Vec<Triangle>, Bvh) {
+    let tris = scene();
+    let bvh = median_split_bvh(&tris);
+    (tris, bvh)
+}
+
 /// Median split on the largest axis of the centroid bounds, leaves of at most 4 triangles.
 fn median_split_bvh(tris: &[Triangle]) -> Bvh {
     fn rec(tris: &[Triangle], idx: &mut [u32], first: usize, nodes: &mut Vec<Node>) {
@@ -171,8 +178,7 @@ fn primary_set_matches_primary_ray() {
 
 #[test]
 fn diffuse_rays_leave_the_surface_into_the_hemisphere_of_the_facing_normal() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let tracer = Bvh2Tracer::new(&bvh, &tris);
     let primary = RaySet::primary(&camera(), W, H);
     let hits = trace_closest(&tracer, &primary.rays);
@@ -217,8 +223,7 @@ fn diffuse_rays_leave_the_surface_into_the_hemisphere_of_the_facing_normal() {
 
 #[test]
 fn ray_sets_are_deterministic_across_thread_counts_and_seeded() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let tracer = Bvh2Tracer::new(&bvh, &tris);
     for kind in RayKind::ALL {
         let one = with_threads(1, || {
@@ -275,8 +280,7 @@ fn ray_sets_are_deterministic_across_thread_counts_and_seeded() {
 
 #[test]
 fn batch_results_equal_one_by_one_tracing_on_any_thread_count() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let tracer = Bvh2Tracer::new(&bvh, &tris);
     for kind in RayKind::ALL {
         let set = RaySet::generate(kind, &camera(), W, H, &tracer, &tris, 1);
@@ -333,8 +337,7 @@ fn batch_results_equal_one_by_one_tracing_on_any_thread_count() {
 
 #[test]
 fn bvh2_tracer_equals_brute_force_ray_by_ray() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let tracer = Bvh2Tracer::new(&bvh, &tris);
     let brute_tracer = BruteTracer::new(&tris);
     for kind in RayKind::ALL {
@@ -381,8 +384,7 @@ fn bvh2_tracer_equals_brute_force_ray_by_ray() {
 
 #[test]
 fn every_available_backend_gives_the_reference_checksums() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let reference = Bvh2Tracer::new(&bvh, &tris);
     let mut tried = 0;
     for backend in Backend::ALL.into_iter().filter(|b| b.is_available()) {
@@ -445,8 +447,7 @@ fn backends_a_cpu_lacks_are_typed_errors() {
     );
     assert_eq!(require_backend(Backend::Sse2, avx2_only), Ok(Backend::Sse2));
     // On this CPU: every backend it lacks is refused by the tracer too.
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     for b in Backend::ALL {
         assert_eq!(
             WideTracer::<8>::with_backend(&bvh, &tris, b).is_ok(),
@@ -486,8 +487,7 @@ fn checksums_and_counts() {
 
 #[test]
 fn invalid_rays_and_empty_scenes_miss() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let tracer = Bvh2Tracer::new(&bvh, &tris);
     let bad = [
         Ray::new(Vec3A::ZERO, Vec3A::ZERO, 0.0, f32::INFINITY),
@@ -535,8 +535,7 @@ fn ray_and_hit_files_round_trip() {
     assert_eq!(back, rays);
     assert_eq!(encode_rays(&back), encode_rays(&rays));
 
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let set = RaySet::primary(&camera(), 16, 12);
     let hits = trace_closest(&Bvh2Tracer::new(&bvh, &tris), &set.rays);
     assert!(hits.contains(&Hit::MISS) && hit_count(&hits) > 0);
@@ -676,8 +675,7 @@ mod files_prop {
 
 #[test]
 fn shaded_render_and_heat_map_are_written_as_png() {
-    let tris = scene();
-    let bvh = median_split_bvh(&tris);
+    let (tris, bvh) = scene_and_bvh();
     let tracer = Bvh2Tracer::new(&bvh, &tris);
     let set = RaySet::primary(&camera(), W, H);
     let counted = trace_closest_counted(&tracer, &set.rays);

@@ -12,11 +12,10 @@ mod spheres;
 
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::Bvh;
-use sahara_fixtures::rays::point_in;
 use sahara_fixtures::soups::mixed_soup;
-use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
+use sahara_geom::{Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{custom, Bvh4, Bvh8, Hit, NoStats, WideBvh};
-use wide_common::{backends, bits};
+use wide_common::{backends, bits, segment_rays};
 
 fn build(name: &str, input: &BuildInput) -> Bvh {
     registry::by_name(name).unwrap().build(input).unwrap()
@@ -24,18 +23,11 @@ fn build(name: &str, input: &BuildInput) -> Bvh {
 
 /// Rays through a soup's bounds: random segments, unbounded rays and rays with `tmin < 0`.
 fn rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 5);
-    let mut p = || point_in(bounds, &mut rng);
-    (0..n)
-        .map(|i| {
-            let (o, e) = (p(), p());
-            match i % 3 {
-                0 => Ray::new(o, e - o, 0.0, 1.0),
-                1 => Ray::new(o, e - o, 0.0, f32::INFINITY),
-                _ => Ray::new(o, e - o, -0.5, 0.5),
-            }
-        })
-        .collect()
+    segment_rays(bounds, n, seed, |i, o, e| match i % 3 {
+        0 => Ray::new(o, e - o, 0.0, 1.0),
+        1 => Ray::new(o, e - o, 0.0, f32::INFINITY),
+        _ => Ray::new(o, e - o, -0.5, 0.5),
+    })
 }
 
 #[test]

@@ -11,11 +11,10 @@ mod wide_common;
 use sahara_builders::{registry, BuildInput, CostModel};
 use sahara_bvh::{Bvh, RefitError};
 use sahara_fixtures::meshes::mesh_like;
-use sahara_fixtures::rays::point_in;
 use sahara_fixtures::soups::{exploded, mixed_soup};
 use sahara_geom::{rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{brute, custom, scalar, Bvh4, Bvh8, NoStats, WideBvh};
-use wide_common::{backends, bits};
+use wide_common::{backends, bits, segment_rays};
 
 fn build(name: &str, tris: &[Triangle]) -> Bvh {
     let input = BuildInput::new(tris, CostModel::default()).unwrap();
@@ -41,15 +40,10 @@ fn jitter(tris: &[Triangle], amp: f32, seed: u64) -> Vec<Triangle> {
 }
 
 fn rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Pcg32::new(seed, 5);
-    let mut p = || point_in(bounds, &mut rng);
-    (0..n)
-        .map(|i| {
-            let (o, e) = (p(), p());
-            let tmax = if i % 2 == 0 { 1.0 } else { f32::INFINITY };
-            Ray::new(o, e - o, 0.0, tmax)
-        })
-        .collect()
+    segment_rays(bounds, n, seed, |i, o, e| {
+        let tmax = if i % 2 == 0 { 1.0 } else { f32::INFINITY };
+        Ray::new(o, e - o, 0.0, tmax)
+    })
 }
 
 fn check_traces<const W: usize>(wide: &WideBvh<W>, bvh: &Bvh, tris: &[Triangle], rays: &[Ray]) {

@@ -219,17 +219,7 @@ impl Scene {
             check(device, "creating the scene")?;
             ensure!(!s.scene.is_null(), "rtcNewScene returned null");
             if n > 0 {
-                let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
-                check(device, "creating the triangle geometry")?;
-                ensure!(!geom.is_null(), "rtcNewGeometry returned null");
-                let filled = fill_buffers(geom, tris);
-                if filled.is_ok() {
-                    sys::rtcCommitGeometry(geom);
-                    sys::rtcAttachGeometry(s.scene, geom);
-                }
-                sys::rtcReleaseGeometry(geom);
-                filled?;
-                check(device, "committing the triangle geometry")?;
+                attach_triangles(device, s.scene, tris)?;
             }
             sys::rtcSetSceneBuildQuality(s.scene, config.quality());
             sys::rtcSetSceneFlags(s.scene, config.flags());
@@ -237,6 +227,36 @@ impl Scene {
             check(device, "committing the scene (building its BVH)")?;
         }
         Ok(s)
+    }
+}
+
+/// Makes a triangle geometry of `tris`, commits it and attaches it to `scene`; the geometry is
+/// released after being attached (the scene keeps its own reference), or when filling its
+/// buffers failed.
+///
+/// # Safety
+///
+/// `device` and `scene` are live handles, `scene` made on `device`; `tris` is not empty and
+/// `tris.len() * 3` fits in `u32`.
+unsafe fn attach_triangles(
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+    tris: &[Triangle],
+) -> Result<()> {
+    // SAFETY: the geometry is checked for null before use; its buffers are written in bounds
+    // by `fill_buffers` (the caller's bounds on `tris`).
+    unsafe {
+        let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+        check(device, "creating the triangle geometry")?;
+        ensure!(!geom.is_null(), "rtcNewGeometry returned null");
+        let filled = fill_buffers(geom, tris);
+        if filled.is_ok() {
+            sys::rtcCommitGeometry(geom);
+            sys::rtcAttachGeometry(scene, geom);
+        }
+        sys::rtcReleaseGeometry(geom);
+        filled?;
+        check(device, "committing the triangle geometry")
     }
 }
 
@@ -616,17 +636,7 @@ impl BuildTimer {
             check(device, "creating the scene")?;
             ensure!(!scene.is_null(), "rtcNewScene returned null");
             let result = (|| {
-                let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
-                check(device, "creating the triangle geometry")?;
-                ensure!(!geom.is_null(), "rtcNewGeometry returned null");
-                let filled = fill_buffers(geom, tris);
-                if filled.is_ok() {
-                    sys::rtcCommitGeometry(geom);
-                    sys::rtcAttachGeometry(scene, geom);
-                }
-                sys::rtcReleaseGeometry(geom);
-                filled?;
-                check(device, "committing the triangle geometry")?;
+                attach_triangles(device, scene, tris)?;
                 sys::rtcSetSceneBuildQuality(scene, config.quality());
                 sys::rtcSetSceneFlags(scene, config.flags());
                 let r = commit(scene);

@@ -82,6 +82,21 @@ struct Leaf {
     ids: [u32; MAX_LEAF as usize],
 }
 
+/// Room for one `T` from Embree's thread-local allocator (null when it fails), owned by the
+/// BVH object until it is released.
+///
+/// # Safety
+///
+/// `alloc` is the allocator Embree passed to the callback.
+unsafe fn alloc_node<T>(alloc: sys::RTCThreadLocalAllocator) -> *mut T {
+    // SAFETY: the caller's contract; Embree returns memory of the requested size and
+    // alignment, or null.
+    unsafe {
+        sys::rtcThreadLocalAlloc(alloc, std::mem::size_of::<T>(), std::mem::align_of::<T>())
+            .cast::<T>()
+    }
+}
+
 unsafe extern "C" fn create_node(
     alloc: sys::RTCThreadLocalAllocator,
     child_count: c_uint,
@@ -90,12 +105,7 @@ unsafe extern "C" fn create_node(
     // SAFETY: Embree's allocator returns memory of the requested size and alignment (or
     // null), owned by the BVH object until it is released.
     unsafe {
-        let p = sys::rtcThreadLocalAlloc(
-            alloc,
-            std::mem::size_of::<Inner>(),
-            std::mem::align_of::<Inner>(),
-        )
-        .cast::<Inner>();
+        let p = alloc_node::<Inner>(alloc);
         if !p.is_null() {
             p.write(Inner {
                 tag: TAG_INNER,
@@ -140,12 +150,7 @@ unsafe extern "C" fn create_leaf(
 ) -> *mut c_void {
     // SAFETY: as in `create_node`; `prims` holds `count` primitives.
     unsafe {
-        let p = sys::rtcThreadLocalAlloc(
-            alloc,
-            std::mem::size_of::<Leaf>(),
-            std::mem::align_of::<Leaf>(),
-        )
-        .cast::<Leaf>();
+        let p = alloc_node::<Leaf>(alloc);
         if p.is_null() {
             return p.cast();
         }

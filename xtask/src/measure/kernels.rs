@@ -441,8 +441,7 @@ pub fn kernels(a: &KernelsArgs) -> Result<Vec<KernelRow>> {
             leaves: work[i].leaves,
             triangles: work[i].triangles,
         };
-        out.row(&row)?;
-        rows.push(row);
+        out.keep(&mut rows, row)?;
     }
     Ok(rows)
 }

@@ -185,6 +185,13 @@ impl Out {
         }
         Ok(())
     }
+
+    /// [`row`](Self::row), then `r` kept in `rows` (the table the harness returns).
+    pub fn keep<R: Row>(&self, rows: &mut Vec<R>, r: R) -> Result<()> {
+        self.row(&r)?;
+        rows.push(r);
+        Ok(())
+    }
 }
 
 /// `a / b − 1`, the relative change the tables print as a percentage.

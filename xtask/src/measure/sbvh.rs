@@ -106,8 +106,7 @@ pub fn sbvh(a: &SbvhArgs) -> Result<Vec<SbvhRow>> {
                 references: bvh.prim_indices.len(),
                 depth: bvh.stats().depth,
             };
-            out.row(&row)?;
-            rows.push(row);
+            out.keep(&mut rows, row)?;
         }
     }
     Ok(rows)
@@ -241,12 +240,10 @@ pub fn tsah_spatial(a: &TsahSpatialArgs) -> Result<Vec<SpatialRow>> {
                 })
             };
         let reference = build("sbvh", &SbvhBuilder::new(SbvhConfig::DEFAULT), None)?;
-        out.row(&reference)?;
-        rows.push(reference.clone());
+        out.keep(&mut rows, reference.clone())?;
         for (name, config) in &configs {
             let row = build(name, &TsahSpatialBuilder::new(*config), Some(&reference))?;
-            out.row(&row)?;
-            rows.push(row);
+            out.keep(&mut rows, row)?;
         }
     }
     Ok(rows)

@@ -13,6 +13,16 @@ use sahara_geom::Triangle;
 use sahara_metrics::sah;
 use serde::Serialize;
 
+/// The options the harnesses of this module share: `--epo` and [`Common`].
+#[derive(clap::Args, Clone, Debug)]
+pub struct Options {
+    /// Also compute each tree's EPO.
+    #[arg(long)]
+    pub epo: bool,
+    #[command(flatten)]
+    pub common: Common,
+}
+
 /// `measure presets`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct PresetsArgs {
@@ -30,11 +40,8 @@ pub struct PresetsArgs {
         default_value = "sweep,tsah-topk,tsah-binned,popov-d2,hybrid"
     )]
     pub builders: Vec<String>,
-    /// Also compute each tree's EPO.
-    #[arg(long)]
-    pub epo: bool,
     #[command(flatten)]
-    pub common: Common,
+    pub options: Options,
 }
 
 /// `measure knobs`.
@@ -55,11 +62,8 @@ pub struct KnobsArgs {
     /// Compare many more configurations (k = 1..16, greedy thresholds 0..256, more binnings).
     #[arg(long)]
     pub wide: bool,
-    /// Also compute each tree's EPO.
-    #[arg(long)]
-    pub epo: bool,
     #[command(flatten)]
-    pub common: Common,
+    pub options: Options,
 }
 
 /// `measure dragon`.
@@ -71,11 +75,8 @@ pub struct DragonArgs {
     /// Registered builders, in table order; rows after `sweep` are compared with it.
     #[arg(long, value_delimiter = ',', default_value = "sweep,tsah-topk")]
     pub builders: Vec<String>,
-    /// Also compute each tree's EPO.
-    #[arg(long)]
-    pub epo: bool,
     #[command(flatten)]
-    pub common: Common,
+    pub options: Options,
 }
 
 /// `measure configs`.
@@ -88,11 +89,8 @@ pub struct ConfigsArgs {
     /// Scenes (catalog names, `procedural:size` or paths).
     #[arg(long, value_delimiter = ',', default_value = "sibenik,sponza_dabrovic")]
     pub scenes: Vec<String>,
-    /// Also compute each tree's EPO.
-    #[arg(long)]
-    pub epo: bool,
     #[command(flatten)]
-    pub common: Common,
+    pub options: Options,
 }
 
 /// `measure popov-configs`.
@@ -104,11 +102,8 @@ pub struct PopovConfigsArgs {
     /// Scenes (catalog names, `procedural:size` or paths).
     #[arg(long, value_delimiter = ',', default_value = "sibenik,sponza_dabrovic")]
     pub scenes: Vec<String>,
-    /// Also compute each tree's EPO.
-    #[arg(long)]
-    pub epo: bool,
     #[command(flatten)]
-    pub common: Common,
+    pub options: Options,
 }
 
 /// One tree: a row of the tables (and the JSON record of `--json`).
@@ -199,12 +194,8 @@ fn measure(
 }
 
 /// Registered builders on each scene in turn, rows after `sweep` compared with it.
-fn registered(
-    scenes: &[String],
-    names: &[String],
-    epo: bool,
-    common: &Common,
-) -> Result<Vec<BuildRow>> {
+fn registered(scenes: &[String], names: &[String], options: &Options) -> Result<Vec<BuildRow>> {
+    let (epo, common) = (options.epo, &options.common);
     let builders: Vec<Box<dyn Builder>> = names
         .iter()
         .map(|n| util::builder(n))
@@ -231,10 +222,10 @@ fn registered(
 fn against_sweep(
     scenes: &[String],
     configs: &[(String, Box<dyn Builder>)],
-    epo: bool,
-    common: &Common,
+    options: &Options,
     generated: impl Fn(&str) -> Option<Vec<Triangle>>,
 ) -> Result<Vec<BuildRow>> {
+    let (epo, common) = (options.epo, &options.common);
     let sweep = util::builder("sweep")?;
     let out = common.out();
     header(&out, "config");
@@ -249,28 +240,21 @@ fn against_sweep(
             },
         };
         let base = measure(&name, "sweep", sweep.as_ref(), &tris, epo, None)?;
-        out.row(&base)?;
-        rows.push(base.clone());
+        out.keep(&mut rows, base.clone())?;
         for (label, b) in configs {
             let row = measure(&name, label, b.as_ref(), &tris, epo, Some(&base))?;
-            out.row(&row)?;
-            rows.push(row);
+            out.keep(&mut rows, row)?;
         }
     }
     Ok(rows)
 }
 
 pub fn presets(a: &PresetsArgs) -> Result<Vec<BuildRow>> {
-    registered(&a.scenes, &a.builders, a.epo, &a.common)
+    registered(&a.scenes, &a.builders, &a.options)
 }
 
 pub fn dragon(a: &DragonArgs) -> Result<Vec<BuildRow>> {
-    registered(
-        std::slice::from_ref(&a.scene),
-        &a.builders,
-        a.epo,
-        &a.common,
-    )
+    registered(std::slice::from_ref(&a.scene), &a.builders, &a.options)
 }
 
 /// The configurations of `measure knobs`, labelled.
@@ -333,7 +317,7 @@ pub fn knobs(a: &KnobsArgs) -> Result<Vec<BuildRow>> {
         .into_iter()
         .map(|(label, c)| (label, Box::new(TsahBuilder::new(c)) as Box<dyn Builder>))
         .collect();
-    against_sweep(&a.scenes, &configs, a.epo, &a.common, |scene| match scene {
+    against_sweep(&a.scenes, &configs, &a.options, |scene| match scene {
         "soup" => Some(sahara_fixtures::soups::box_soup(100_000, 5)),
         "mesh" => Some(sahara_fixtures::meshes::mesh_like(200, 6)),
         _ => None,
@@ -356,12 +340,12 @@ fn json_configs<C: Strategy + serde::de::DeserializeOwned>(
 
 pub fn configs(a: &ConfigsArgs) -> Result<Vec<BuildRow>> {
     let configs = json_configs::<TsahConfig>(&a.configs, |c| Box::new(TsahBuilder::new(c)))?;
-    against_sweep(&a.scenes, &configs, a.epo, &a.common, |_| None)
+    against_sweep(&a.scenes, &configs, &a.options, |_| None)
 }
 
 pub fn popov_configs(a: &PopovConfigsArgs) -> Result<Vec<BuildRow>> {
     let configs = json_configs::<PopovConfig>(&a.configs, |c| Box::new(PopovBuilder::new(c)))?;
-    against_sweep(&a.scenes, &configs, a.epo, &a.common, |_| None)
+    against_sweep(&a.scenes, &configs, &a.options, |_| None)
 }
 
 #[cfg(test)]
@@ -407,7 +391,7 @@ mod tests {
             p.builders,
             ["sweep", "tsah-topk", "tsah-binned", "popov-d2", "hybrid"]
         );
-        assert!(!p.epo && !p.common.json && p.common.scene_dir.is_none());
+        assert!(!p.options.epo && !p.options.common.json && p.options.common.scene_dir.is_none());
         let What::Knobs(k) = parse(&["knobs"]).unwrap() else {
             panic!()
         };

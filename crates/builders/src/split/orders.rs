@@ -76,6 +76,14 @@ impl Marks {
     pub fn get(&self, id: u32) -> bool {
         self.flags[id as usize].load(Ordering::Relaxed)
     }
+
+    /// Sets the flags of `ids` to `value`.
+    #[inline]
+    pub(crate) fn set_all(&self, ids: &[u32], value: bool) {
+        for &id in ids {
+            self.set(id, value);
+        }
+    }
 }
 
 impl Default for Marks {
@@ -138,9 +146,7 @@ fn split_orders_into<const PAD: usize>(
 ) {
     let n = orders[axis].len();
     assert!(pos > 0 && pos < n, "split position {pos} outside 1..{n}");
-    for &id in &orders[axis][..pos] {
-        marks.set(id, true);
-    }
+    marks.set_all(&orders[axis][..pos], true);
     for (k, ((order, l), r)) in orders.iter().zip(left).zip(right).enumerate() {
         assert_eq!(order.len(), n);
         assert_eq!(l.len(), pos + PAD);
@@ -173,9 +179,7 @@ fn split_orders_into<const PAD: usize>(
         }
         assert_eq!(li, pos, "orders do not hold the same ids");
     }
-    for &id in &orders[axis][..pos] {
-        marks.set(id, false);
-    }
+    marks.set_all(&orders[axis][..pos], false);
 }
 
 /// Stable partition of a node's orders in place by a split: the first `pos` ids of
@@ -187,9 +191,7 @@ pub fn partition_in_place(
     marks: &Marks,
     tmp: &mut [u32],
 ) {
-    for &id in orders[axis][..pos].iter() {
-        marks.set(id, true);
-    }
+    marks.set_all(&orders[axis][..pos], true);
     // The marked ids to the front, the others (through `tmp`) behind them, in order. Without
     // a branch on the flag (it is unpredictable on the orders not split): each id is written
     // to both places and only the cursor of its side advances. A write to `order[l]` never
@@ -229,9 +231,7 @@ pub fn partition_in_place(
         part(a, tmp);
         part(b, tmp);
     }
-    for &id in orders[axis][..pos].iter() {
-        marks.set(id, false);
-    }
+    marks.set_all(&orders[axis][..pos], false);
 }
 
 #[cfg(test)]
@@ -239,44 +239,48 @@ mod tests {
     use super::*;
     use sahara_geom::rng::Pcg32;
 
+    /// Three random orders of the ids `0..n` (`n >= 2`), the split axis and a random split
+    /// position in `1..n`.
+    fn random_split(rng: &mut Pcg32, n: usize, axis: usize) -> (Vec<Vec<u32>>, usize, usize) {
+        let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
+        for o in base.iter_mut() {
+            for i in (1..n).rev() {
+                o.swap(i, rng.next_u32() as usize % (i + 1));
+            }
+        }
+        let pos = 1 + rng.next_u32() as usize % (n - 1);
+        (base, axis, pos)
+    }
+
+    /// The three orders of `v` as mutable slices.
+    fn slices(v: &mut [Vec<u32>]) -> [&mut [u32]; 3] {
+        let [a, b, c] = v else { unreachable!() };
+        [a, b, c]
+    }
+
     /// The in-place stable partition equals a plain filter of each order.
     #[test]
     fn padded_split_equals_split_orders() {
         let mut rng = Pcg32::new(13, 4);
         for case in 0..200 {
             let n = 2 + (rng.next_u32() % 300) as usize;
-            let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
-            for o in base.iter_mut() {
-                for i in (1..n).rev() {
-                    o.swap(i, rng.next_u32() as usize % (i + 1));
-                }
-            }
-            let axis = case % 3;
-            let pos = 1 + rng.next_u32() as usize % (n - 1);
+            let (base, axis, pos) = random_split(&mut rng, n, case % 3);
             let orders = [&base[0][..], &base[1][..], &base[2][..]];
             let marks = Marks::new(n);
             let mut want_l = vec![vec![0u32; pos]; 3];
             let mut want_r = vec![vec![0u32; n - pos]; 3];
-            {
-                let [a, b, c] = &mut want_l[..] else {
-                    unreachable!()
-                };
-                let [d, e, f] = &mut want_r[..] else {
-                    unreachable!()
-                };
-                split_orders(orders, axis, pos, &marks, [a, b, c], [d, e, f]);
-            }
+            split_orders(
+                orders,
+                axis,
+                pos,
+                &marks,
+                slices(&mut want_l),
+                slices(&mut want_r),
+            );
             let mut got_l = vec![vec![0u32; pos + 1]; 3];
             let mut got_r = vec![vec![0u32; n - pos + 1]; 3];
-            {
-                let [a, b, c] = &mut got_l[..] else {
-                    unreachable!()
-                };
-                let [d, e, f] = &mut got_r[..] else {
-                    unreachable!()
-                };
-                split_orders_padded(orders, axis, pos, &marks, [a, b, c], [d, e, f]);
-            }
+            let (l, r) = (slices(&mut got_l), slices(&mut got_r));
+            split_orders_padded(orders, axis, pos, &marks, l, r);
             for k in 0..3 {
                 assert_eq!(got_l[k][..pos], want_l[k][..], "case {case}, left {k}");
                 assert_eq!(got_r[k][..n - pos], want_r[k][..], "case {case}, right {k}");
@@ -294,14 +298,7 @@ mod tests {
             } else {
                 2 + (rng.next_u32() % 300) as usize
             };
-            let mut base: Vec<Vec<u32>> = (0..3).map(|_| (0..n as u32).collect()).collect();
-            for o in base.iter_mut() {
-                for i in (1..n).rev() {
-                    o.swap(i, rng.next_u32() as usize % (i + 1));
-                }
-            }
-            let axis = case % 3;
-            let pos = 1 + rng.next_u32() as usize % (n - 1);
+            let (mut base, axis, pos) = random_split(&mut rng, n, case % 3);
             let left: Vec<u32> = base[axis][..pos].to_vec();
             let want: Vec<Vec<u32>> = base
                 .iter()
@@ -314,10 +311,7 @@ mod tests {
                 .collect();
             let marks = Marks::new(n);
             let mut tmp = vec![0u32; n];
-            let [a, b, c] = &mut base[..] else {
-                unreachable!()
-            };
-            let mut orders: [&mut [u32]; 3] = [a, b, c];
+            let mut orders = slices(&mut base);
             partition_in_place(&mut orders, axis, pos, &marks, &mut tmp);
             assert_eq!(base, want, "case {case}, n = {n}, axis {axis}, pos {pos}");
             assert!((0..n as u32).all(|id| !marks.get(id)), "marks left set");

@@ -5,6 +5,7 @@
 #![allow(dead_code)]
 
 use sahara_bvh::{Bvh, Node};
+use sahara_fixtures::rays::point_in;
 use sahara_geom::{clip, rng::Pcg32, Aabb, Ray, Triangle, Vec3A};
 use sahara_traverse::{Backend, Hit};
 
@@ -262,12 +263,22 @@ pub fn unit_dir(r: &mut Pcg32) -> Vec3A {
     }
 }
 
-fn point_in(r: &mut Pcg32, b: &Aabb) -> Vec3A {
-    Vec3A::new(
-        r.range_f32(b.min.x, b.max.x),
-        r.range_f32(b.min.y, b.max.y),
-        r.range_f32(b.min.z, b.max.z),
-    )
+/// `n` rays between two random points of `b` each (origin, then end point, drawn by
+/// [`point_in`] from a generator seeded with `seed`): `make(i, origin, end)` makes ray `i`.
+pub fn segment_rays(
+    b: &Aabb,
+    n: usize,
+    seed: u64,
+    make: impl Fn(usize, Vec3A, Vec3A) -> Ray,
+) -> Vec<Ray> {
+    let mut rng = Pcg32::new(seed, 5);
+    let mut p = || point_in(b, &mut rng);
+    (0..n)
+        .map(|i| {
+            let (o, e) = (p(), p());
+            make(i, o, e)
+        })
+        .collect()
 }
 
 /// Random rays: origins in the scene box grown by half its size, random directions, with a mix
@@ -278,7 +289,7 @@ pub fn random_rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
     let big = Aabb::new(b.min - e, b.max + e);
     (0..n)
         .map(|i| {
-            let o = point_in(&mut r, &big);
+            let o = point_in(&big, &mut r);
             let d = unit_dir(&mut r);
             let (tmin, tmax) = match i % 8 {
                 0 => (0.1 * r.next_f32(), r.range_f32(0.0, 3.0)),
@@ -320,7 +331,7 @@ pub fn vertex_and_edge_rays(tris: &[Triangle], b: &Aabb, n: usize, seed: u64) ->
                     t.v[k] + (t.v[(k + 1) % 3] - t.v[k]) * s
                 }
             };
-            let o = point_in(&mut r, &big);
+            let o = point_in(&big, &mut r);
             let tmax = if i % 5 == 0 { 1.0 } else { f32::INFINITY };
             Ray::new(o, target - o, 0.0, tmax)
         })
@@ -336,7 +347,7 @@ pub fn grazing_rays(bvh: &Bvh, n: usize, seed: u64) -> Vec<Ray> {
             let node = &bvh.nodes[r.below(bvh.nodes.len() as u32) as usize];
             let b = node.bounds();
             let axis = r.below(3) as usize;
-            let mut o = point_in(&mut r, &b);
+            let mut o = point_in(&b, &mut r);
             o[axis] = if r.below(2) == 0 {
                 b.min[axis]
             } else {
@@ -419,7 +430,7 @@ pub fn adversarial_rays(b: &Aabb, seed: u64) -> Vec<Ray> {
         -Vec3A::Z,
     ] {
         for _ in 0..20 {
-            let o = point_in(&mut r, b);
+            let o = point_in(b, &mut r);
             rays.push(Ray::new(o, axis, 0.0, f32::INFINITY));
             rays.push(Ray::new(o - axis * 10.0, axis, 0.0, f32::INFINITY));
             rays.push(Ray::new(o, axis * 1e-30, 0.0, f32::INFINITY));
@@ -427,7 +438,7 @@ pub fn adversarial_rays(b: &Aabb, seed: u64) -> Vec<Ray> {
         }
     }
     for _ in 0..50 {
-        let o = point_in(&mut r, b);
+        let o = point_in(b, &mut r);
         let d = unit_dir(&mut r) * 1e-39; // denormal direction
         rays.push(Ray::new(o, d, 0.0, f32::INFINITY));
     }

@@ -6,6 +6,7 @@
 
 use std::ops::RangeInclusive;
 
+use glam::BVec3A;
 pub use sahara_geom::clip::clip_halves;
 use sahara_geom::{Aabb, Axis, Triangle, Vec3A};
 
@@ -183,12 +184,44 @@ impl<'a> SlabClipper<'a> {
         Aabb::new(long.min(short), long.max(short))
     }
 
+    /// The lane mask of the clipper's axis (lane masks instead of writes to one lane: those go
+    /// through memory and stall).
+    #[inline(always)]
+    pub(super) fn axis_mask(&self) -> BVec3A {
+        Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(self.axis as f32))
+    }
+
+    /// The bounds of the piece of the triangle in the slab `lower_pos..=upper_pos` of the axis
+    /// (`mask` is [`axis_mask`](Self::axis_mask)): the crossings `lower` and `upper` of its
+    /// planes and the vertices between them, clamped to the reference's box and the slab
+    /// (empty when the triangle misses the slab).
+    #[inline(always)]
+    pub(super) fn piece(
+        &self,
+        mask: BVec3A,
+        lower_pos: f32,
+        lower: &Aabb,
+        upper_pos: f32,
+        upper: &Aabb,
+    ) -> Aabb {
+        let a = self.axis;
+        let mut piece = lower.union(upper);
+        for p in &self.v {
+            if p[a] >= lower_pos && p[a] <= upper_pos {
+                piece.grow(*p);
+            }
+        }
+        let slab = Aabb::new(
+            Vec3A::select(mask, Vec3A::splat(lower_pos), self.bounds.min),
+            Vec3A::select(mask, Vec3A::splat(upper_pos), self.bounds.max),
+        );
+        piece.intersection(self.bounds).intersection(&slab)
+    }
+
     /// Calls `f(bin, piece_bounds)` for every bin `first..=last` the reference spans.
     #[inline]
     pub fn bin(&self, map: &BinMap, first: usize, last: usize, mut f: impl FnMut(usize, &Aabb)) {
-        let a = self.axis;
-        // Lane masks instead of writes to one lane: those go through memory and stall.
-        let mask = Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(a as f32));
+        let mask = self.axis_mask();
         let mut lower_pos = f32::NEG_INFINITY;
         let mut lower = Aabb::EMPTY;
         for b in first..=last {
@@ -198,17 +231,7 @@ impl<'a> SlabClipper<'a> {
                 let p = map.plane(b + 1);
                 (p, self.crossing(p))
             };
-            let mut piece = lower.union(&upper);
-            for p in &self.v {
-                if p[a] >= lower_pos && p[a] <= upper_pos {
-                    piece.grow(*p);
-                }
-            }
-            let slab = Aabb::new(
-                Vec3A::select(mask, Vec3A::splat(lower_pos), self.bounds.min),
-                Vec3A::select(mask, Vec3A::splat(upper_pos), self.bounds.max),
-            );
-            let piece = piece.intersection(self.bounds).intersection(&slab);
+            let piece = self.piece(mask, lower_pos, &lower, upper_pos, &upper);
             if !piece.is_empty() {
                 f(b, &piece);
             }

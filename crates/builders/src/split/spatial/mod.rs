@@ -557,7 +557,7 @@ impl SlabClipper<'_> {
         let a = self.axis;
         let v = &self.v;
         let (v0a, v1a, v2a) = (v[0][a], v[1][a], v[2][a]);
-        let mask = Vec3A::new(0.0, 1.0, 2.0).cmpeq(Vec3A::splat(a as f32));
+        let mask = self.axis_mask();
         let empty = Aabb::EMPTY;
         // `crossing`, computed on both branches and selected (the same values).
         let crossing = |pos: f32| -> Aabb {
@@ -573,17 +573,7 @@ impl SlabClipper<'_> {
             )
         };
         let piece_in = |lower_pos: f32, lower: &Aabb, upper_pos: f32, upper: &Aabb| -> Aabb {
-            let mut piece = lower.union(upper);
-            for p in v {
-                if p[a] >= lower_pos && p[a] <= upper_pos {
-                    piece.grow(*p);
-                }
-            }
-            let slab = Aabb::new(
-                Vec3A::select(mask, Vec3A::splat(lower_pos), self.bounds.min),
-                Vec3A::select(mask, Vec3A::splat(upper_pos), self.bounds.max),
-            );
-            let piece = piece.intersection(self.bounds).intersection(&slab);
+            let piece = self.piece(mask, lower_pos, lower, upper_pos, upper);
             let keep = glam::BVec3A::splat(!piece.is_empty());
             Aabb::new(
                 Vec3A::select(keep, piece.min, empty.min),
