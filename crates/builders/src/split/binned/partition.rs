@@ -3,7 +3,6 @@
 //! twin and a parallel one for the top nodes, all making the same swaps), and its object median
 //! split ([`median_split`]) where no plane separates anything.
 
-use glam::BVec3A;
 use rayon::prelude::*;
 use sahara_geom::{Aabb, Vec3A};
 
@@ -91,6 +90,53 @@ fn goes_left(p: &Plane, c: Vec3A) -> bool {
     left
 }
 
+/// [`goes_left`] of a reference, reading its centroid on the plane's axis only (the same
+/// operations as `goes_left(p, r.centroid())`, without forming the other two lanes).
+#[derive(Clone, Copy)]
+struct Classifier {
+    min: f32,
+    scale: f32,
+    plane: f32,
+    axis: usize,
+}
+
+impl Classifier {
+    fn new(p: &Plane) -> Self {
+        Self {
+            min: p.map.min,
+            scale: p.map.scale,
+            plane: p.plane as f32,
+            axis: p.axis,
+        }
+    }
+
+    /// Whether reference `r` goes left, exactly [`goes_left`] of its centroid.
+    #[inline(always)]
+    fn left(&self, r: &PrimRef) -> bool {
+        // `& 3` keeps the index in the lanes without a bounds check (the axis is below 3).
+        let a = self.axis & 3;
+        let c = (r.min[a] + r.max[a]) * 0.5;
+        let v = (c - self.min) * self.scale;
+        // Negated on purpose: NaN goes left, as in `goes_left`.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let left = !(v >= self.plane);
+        left
+    }
+}
+
+/// The bounds of the references' centroids (a union: exact in any order but for the sign of
+/// a zero).
+#[inline]
+fn centroid_bounds(refs: &[PrimRef]) -> Aabb {
+    let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    for r in refs {
+        let c = r.centroid();
+        lo = lo.min(c);
+        hi = hi.max(c);
+    }
+    Aabb::new(lo, hi)
+}
+
 /// The serial in-place partition (Hoare's two-pointer scheme): the `k`-th reference of the
 /// front `0..mid` that goes right swaps with the `k`-th reference of the back `mid..`,
 /// counted from the end, that goes left (`mid` being the number going left).
@@ -150,18 +196,8 @@ fn partition_branchless(
     // The front's misplaced positions go to `wrong[..mid]`, the back's to `wrong[mid..]`:
     // each list has room for its whole half.
     let (wf, wb) = wrong[..n].split_at_mut(mid);
-    let (mut lmin, mut lmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    let (mut rmin, mut rmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    let mut classify = |r: &PrimRef| {
-        let c = r.centroid();
-        let left = goes_left(p, c);
-        let m = BVec3A::splat(left);
-        lmin = lmin.min(Vec3A::select(m, c, Vec3A::INFINITY));
-        lmax = lmax.max(Vec3A::select(m, c, Vec3A::NEG_INFINITY));
-        rmin = rmin.min(Vec3A::select(m, Vec3A::INFINITY, c));
-        rmax = rmax.max(Vec3A::select(m, Vec3A::NEG_INFINITY, c));
-        left
-    };
+    let plane = Classifier::new(p);
+    let classify = |r: &PrimRef| plane.left(r);
     let mut nf = 0usize;
     for (i, r) in refs[..mid].iter().enumerate() {
         // Written every time, kept (the count moves on) only when the reference goes right.
@@ -180,9 +216,14 @@ fn partition_branchless(
     for (&i, &j) in wf[..nf].iter().zip(&wb[..nb]) {
         refs.swap(i as usize, j as usize);
     }
-    let lc = Aabb::new(lmin, lmax);
-    let rc = Aabb::new(rmin, rmax);
-    Some((mid, lc, rc))
+    // The centroid bounds of both sides in a second pass over the partitioned references
+    // (cached at all but the top nodes): two lanes of `min` and `max` per reference instead
+    // of a masked union of both sides in the classifying pass.
+    Some((
+        mid,
+        centroid_bounds(&refs[..mid]),
+        centroid_bounds(&refs[mid..]),
+    ))
 }
 
 /// [`partition_serial`] in parallel, with the same result: the misplaced references of the

@@ -2,7 +2,7 @@
 //! bounds on each axis, the plane of least Eq. 2 cost over the three axes ([`best_plane`]),
 //! ranked by its score `A_l n_l + A_r n_r` (the order of Eq. 2 without a division per plane)
 //! with the tie-break of every search ([`ranks_before`]). Nodes of two references and nodes of
-//! fewer references than half the bins take shortcuts that find the same plane, bit for bit.
+//! at most twice as many references as bins take shortcuts that find the same plane, bit for bit.
 
 use sahara_geom::{Aabb, Vec3A};
 
@@ -18,26 +18,54 @@ pub struct PlaneScratch {
     sparse: SparseBins,
 }
 
-/// The bins of [`best_plane_sparse`]: `3 × k`, axis-major, all empty between two
-/// searches (a search empties the bins it filled, which a bit mask per axis records).
-#[derive(Debug, Default)]
+/// One bin of [`SparseBins`]: the union of its references' boxes (lanes `x, y, z`; the
+/// fourth is zero) and their count.
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    min: [f32; 4],
+    max: [f32; 4],
+    count: u32,
+}
+
+impl Slot {
+    const EMPTY: Slot = Slot {
+        min: super::refs::EMPTY_MIN,
+        max: super::refs::EMPTY_MAX,
+        count: 0,
+    };
+}
+
+/// The bins of [`best_plane_sparse`]: 64 per axis (the most bins it takes), all empty between
+/// two searches (a search empties the bins it filled, which a bit mask per axis records).
+/// Fixed arrays, indexed by `bin & 63` (every bin is below 64): no bounds check on the
+/// search's hottest accesses.
+#[derive(Debug)]
 struct SparseBins {
-    min: Vec<[f32; 4]>,
-    max: Vec<[f32; 4]>,
-    count: Vec<u32>,
+    bins: Box<[[Slot; 64]; 3]>,
+}
+
+impl Default for SparseBins {
+    fn default() -> Self {
+        Self {
+            bins: Box::new([[Slot::EMPTY; 64]; 3]),
+        }
+    }
 }
 
 impl SparseBins {
-    /// Empties the bins of `masks` (`k` bins per axis).
-    fn empty(&mut self, masks: &[u64; 3], k: usize) {
+    /// Bin `b` of axis `axis`.
+    #[inline(always)]
+    fn at(&mut self, axis: usize, b: usize) -> &mut Slot {
+        &mut self.bins[axis % 3][b & 63]
+    }
+
+    /// Empties the bins of `masks`.
+    fn empty(&mut self, masks: &[u64; 3]) {
         for (axis, &mask) in masks.iter().enumerate() {
             let mut bits = mask;
             while bits != 0 {
-                let i = axis * k + bits.trailing_zeros() as usize;
+                *self.at(axis, bits.trailing_zeros() as usize) = Slot::EMPTY;
                 bits &= bits - 1;
-                self.min[i] = super::refs::EMPTY_MIN;
-                self.max[i] = super::refs::EMPTY_MAX;
-                self.count[i] = 0;
             }
         }
     }
@@ -97,7 +125,7 @@ pub fn best_plane(
     }
     if refs.len() == 2 {
         best_plane_of_two(refs, &maps, k)
-    } else if 2 * refs.len() <= k && k <= 64 {
+    } else if refs.len() <= 2 * k && k <= 64 {
         best_plane_sparse(refs, &maps, k, s)
     } else {
         best_plane_binned(refs, &maps, k, backend, s)
@@ -178,10 +206,10 @@ fn best_plane_of_two(refs: &[PrimRef], maps: &[Option<BinMap>; 3], k: usize) -> 
     })
 }
 
-/// [`best_plane`] for nodes with fewer primitives than half the bins
-/// (and at most 64 bins): most bins are empty, so only the occupied ones are filled (a
-/// bit mask per axis says which) and swept, and only the first plane after each occupied
-/// bin is rated. Bit for bit [`best_plane_binned`]:
+/// [`best_plane`] for nodes of at most twice as many primitives as bins (and at most 64
+/// bins): many bins are empty, so only the occupied ones are filled (a bit mask per axis says
+/// which) and swept, and only the first plane after each occupied bin is rated. Bit for bit
+/// [`best_plane_binned`]:
 ///
 /// * an occupied bin holds the same union in the same operand order (the first reference
 ///   stored as is equals `min(+inf, r)`, `max(-inf, r)`), and an empty bin is the neutral
@@ -198,11 +226,6 @@ fn best_plane_sparse(
 ) -> Option<Plane> {
     debug_assert!(k <= 64);
     let sp = &mut s.sparse;
-    if sp.min.len() < 3 * k {
-        sp.min.resize(3 * k, super::refs::EMPTY_MIN);
-        sp.max.resize(3 * k, super::refs::EMPTY_MAX);
-        sp.count.resize(3 * k, 0);
-    }
     let top = (k - 1) as f32;
     let (lo4, scale4) = super::refs::map_lanes(maps);
     let on = maps.map(|m| m.is_some());
@@ -216,14 +239,14 @@ fn best_plane_sparse(
                 continue;
             }
             let b = idx[axis] as usize;
-            let i = axis * k + b;
             // No branch on whether the bin was empty: an empty bin is the neutral element
             // (`min(+inf, x)` is `x` bit for bit, as `minps` returns its second operand
             // unless the first is smaller), and bins are emptied again after the search.
             masks[axis] |= 1 << b;
-            sp.min[i] = super::refs::min4(sp.min[i], lo);
-            sp.max[i] = super::refs::max4(sp.max[i], r.max);
-            sp.count[i] += 1;
+            let bin = sp.at(axis, b);
+            bin.min = super::refs::min4(bin.min, lo);
+            bin.max = super::refs::max4(bin.max, r.max);
+            bin.count += 1;
         }
     }
     let mut best: Option<RatedPlane> = None;
@@ -233,32 +256,34 @@ fn best_plane_sparse(
         if mask.count_ones() < 2 {
             continue;
         }
-        let base = axis * k;
         let mut m = 0;
         let mut bits = mask;
         while bits != 0 {
-            occupied[m] = bits.trailing_zeros() as u8;
+            occupied[m & 63] = bits.trailing_zeros() as u8;
             bits &= bits - 1;
             m += 1;
         }
-        let bin = |j: usize| base + occupied[j] as usize;
+        let bins = &sp.bins[axis];
+        let bin = |j: usize| &bins[occupied[j & 63] as usize & 63];
         // Suffixes: right[j] is the union of occupied bins j.. (descending, as the sweep).
         let (mut lo, mut hi, mut rc) = (super::refs::EMPTY_MIN, super::refs::EMPTY_MAX, 0u32);
         for j in (1..m).rev() {
-            lo = super::refs::min4(lo, sp.min[bin(j)]);
-            hi = super::refs::max4(hi, sp.max[bin(j)]);
-            rc += sp.count[bin(j)];
-            right[j] = (super::refs::half_area4(&lo, &hi), rc);
+            let b = bin(j);
+            lo = super::refs::min4(lo, b.min);
+            hi = super::refs::max4(hi, b.max);
+            rc += b.count;
+            right[j & 63] = (super::refs::half_area4(&lo, &hi), rc);
         }
         let (mut lo, mut hi, mut lc) = (super::refs::EMPTY_MIN, super::refs::EMPTY_MAX, 0u32);
         for j in 1..m {
-            lo = super::refs::min4(lo, sp.min[bin(j - 1)]);
-            hi = super::refs::max4(hi, sp.max[bin(j - 1)]);
-            lc += sp.count[bin(j - 1)];
-            let (ra, rc) = right[j];
+            let b = bin(j - 1);
+            lo = super::refs::min4(lo, b.min);
+            hi = super::refs::max4(hi, b.max);
+            lc += b.count;
+            let (ra, rc) = right[j & 63];
             let cand = RatedPlane {
                 axis,
-                plane: occupied[j - 1] as usize + 1,
+                plane: occupied[(j - 1) & 63] as usize + 1,
                 score: super::refs::half_area4(&lo, &hi) as f64 * lc as f64 + ra as f64 * rc as f64,
                 imbalance: imbalance(lc as usize, rc as usize),
             };
@@ -268,7 +293,7 @@ fn best_plane_sparse(
         }
     }
     let Some(RatedPlane { axis, plane, .. }) = best else {
-        sp.empty(&masks, k);
+        sp.empty(&masks);
         return None;
     };
     let (mut l, mut r) = (
@@ -280,17 +305,17 @@ fn best_plane_sparse(
     while bits != 0 {
         let b = bits.trailing_zeros() as usize;
         bits &= bits - 1;
-        let i = axis * k + b;
+        let bin = *sp.at(axis, b);
         let side = if b < plane {
-            n_left += sp.count[i] as usize;
+            n_left += bin.count as usize;
             &mut l
         } else {
             &mut r
         };
-        side.0 = super::refs::min4(side.0, sp.min[i]);
-        side.1 = super::refs::max4(side.1, sp.max[i]);
+        side.0 = super::refs::min4(side.0, bin.min);
+        side.1 = super::refs::max4(side.1, bin.max);
     }
-    sp.empty(&masks, k);
+    sp.empty(&masks);
     let aabb = |(lo, hi): ([f32; 4], [f32; 4])| {
         Aabb::new(
             Vec3A::new(lo[0], lo[1], lo[2]),
@@ -370,7 +395,7 @@ mod tests {
         for bins in [16, 32, 64] {
             let mut s = PlaneScratch::default();
             for trial in 0..200 {
-                let n = 2 + trial % (bins / 2 - 1);
+                let n = 2 + trial % (2 * bins - 1);
                 let prims: Vec<u32> = (0..n).map(|_| rng.below(64)).collect();
                 let prims = refs_of(&tris, &prims);
                 let cb = ref_bounds(&prims).centroids;
