@@ -40,7 +40,22 @@ pub const SIZES: [usize; 16] = [
 pub const SLOW_BUILDER_CAP: usize = 20_000;
 
 /// Builders fast enough for every size of [`SIZES`].
-const FAST_BUILDERS: &[&str] = &["binned", "binned-8", "binned-128", "sweep", "ploc"];
+const FAST_BUILDERS: &[&str] = &[
+    "binned",
+    "binned-8",
+    "binned-128",
+    "cluster-binned",
+    "sweep",
+    "ploc",
+];
+
+/// Builders run up to [`MID_BUILDER_CAP`] triangles: past the 32 768 references of the
+/// parallel object-split bounds (`split/object.rs`), which the other spatial-split builders
+/// reach only past [`SLOW_BUILDER_CAP`].
+const MID_BUILDERS: &[&str] = &["sbvh-fast"];
+
+/// See [`MID_BUILDERS`].
+pub const MID_BUILDER_CAP: usize = 34_000;
 
 /// Builders that take seconds for 20 000 triangles run on at most this many.
 pub const VERY_SLOW_BUILDER_CAP: usize = 3_000;
@@ -468,6 +483,8 @@ pub fn sample_rays(tris: &[Triangle], h: &Header) -> Vec<Ray> {
 pub fn capped_size(entry: &Entry, size: usize) -> usize {
     let mut cap = if FAST_BUILDERS.contains(&entry.name) {
         usize::MAX
+    } else if MID_BUILDERS.contains(&entry.name) {
+        MID_BUILDER_CAP
     } else {
         SLOW_BUILDER_CAP
     };

@@ -1,6 +1,6 @@
 #!/bin/bash
 # bvh4 vs bvh8 at AVX2 (and embree isa=avx2) per ray type, interleaved rounds, one thread.
-X=/work/main/target/release/xtask
+X=${X:-target/release/xtask}  # run from the workspace root
 export SAHARA_EMBREE_CONFIG=isa=avx2
 for round in 1 2 3 4 5; do
  for scene in sponza_dabrovic sibenik; do
